@@ -1,0 +1,276 @@
+"""Typed configuration: scenario files (the world) and the service's own settings.
+
+``load_scenario(path)`` and ``load_config(path)`` are the only places YAML becomes config objects.
+Degrees live only in keys ending in ``_deg``; properties give radians.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Literal
+
+from companion.config_loader import FieldError, build, read_yaml, require
+from companion.core.ekf_slam import AssociationGates, SlamNoise
+from companion.core.guidance import GuidanceParams
+from companion.errors import ConfigError
+
+
+def _positive(key: str, value: float) -> None:
+    require(value > 0.0, key, value, "a value > 0")
+
+
+def _sigma(key: str, value: float) -> None:
+    require(value > 0.0, key, value,
+            "a standard deviation > 0 (the covariance must be positive definite)")
+
+
+# ------------------------------------------------------------------ world
+@dataclass(frozen=True)
+class GeoOrigin:
+    lat_deg: float = -35.363261
+    lon_deg: float = 149.165230
+    alt_m: float = 584.0
+
+    def __post_init__(self) -> None:
+        require(-90.0 <= self.lat_deg <= 90.0, "lat_deg", self.lat_deg, "a latitude in [-90, 90]")
+        require(-180.0 <= self.lon_deg <= 180.0, "lon_deg", self.lon_deg,
+                "a longitude in [-180, 180]")
+
+
+@dataclass(frozen=True)
+class StartPose:
+    north_m: float
+    east_m: float
+    yaw_deg: float = 0.0
+
+    @property
+    def yaw_rad(self) -> float:
+        return math.radians(self.yaw_deg)
+
+
+@dataclass(frozen=True)
+class Goal:
+    north_m: float
+    east_m: float
+    radius_m: float = 2.0
+
+    def __post_init__(self) -> None:
+        _positive("radius_m", self.radius_m)
+
+
+@dataclass(frozen=True)
+class Obstacle:
+    id: int
+    north_m: float
+    east_m: float
+    radius_m: float
+    vel_north_mps: float = 0.0
+    vel_east_mps: float = 0.0
+
+    def __post_init__(self) -> None:
+        require(0 <= self.id < 65535, "id", self.id, "an integer in [0, 65534] (65535 means 'no id')")
+        _positive("radius_m", self.radius_m)
+
+    @property
+    def moving(self) -> bool:
+        return self.vel_north_mps != 0.0 or self.vel_east_mps != 0.0
+
+
+@dataclass(frozen=True)
+class World:
+    start: StartPose
+    goal: Goal
+    obstacles: tuple[Obstacle, ...] = ()
+    origin: GeoOrigin = field(default_factory=GeoOrigin)
+
+    def __post_init__(self) -> None:
+        seen = set()
+        for i, obs in enumerate(self.obstacles):
+            if obs.id in seen:
+                raise FieldError(f"obstacles[{i}].id", f"duplicate obstacle id {obs.id}")
+            seen.add(obs.id)
+            if obs.moving:
+                continue
+            if math.hypot(self.goal.north_m - obs.north_m, self.goal.east_m - obs.east_m) <= obs.radius_m:
+                raise FieldError("goal", f"the goal lies inside obstacle {obs.id}")
+            if math.hypot(self.start.north_m - obs.north_m, self.start.east_m - obs.east_m) <= obs.radius_m:
+                raise FieldError("start", f"the start lies inside obstacle {obs.id}")
+
+
+@dataclass(frozen=True)
+class VehicleConfig:
+    speed_mps: float
+    max_turn_rate_deg_s: float = 30.0
+    max_accel_mps2: float = 2.5
+    dt_s: float = 0.1
+
+    def __post_init__(self) -> None:
+        for key in ("speed_mps", "max_turn_rate_deg_s", "max_accel_mps2", "dt_s"):
+            _positive(key, getattr(self, key))
+
+    @property
+    def max_turn_rate_rad_s(self) -> float:
+        return math.radians(self.max_turn_rate_deg_s)
+
+
+@dataclass(frozen=True)
+class NoiseConfig:
+    speed_sigma_mps: float
+    heading_change_sigma_deg: float
+
+    def __post_init__(self) -> None:
+        _sigma("speed_sigma_mps", self.speed_sigma_mps)
+        _sigma("heading_change_sigma_deg", self.heading_change_sigma_deg)
+
+
+@dataclass(frozen=True)
+class SensorConfig:
+    fov_deg: float
+    max_range_m: float
+    rate_hz: float
+    range_sigma_m: float
+    bearing_sigma_deg: float
+    report_ids: bool = True
+    miss_probability: float = 0.0
+    false_alarm_rate_hz: float = 0.0
+    sector_message: bool = False          # read by the stub only
+
+    def __post_init__(self) -> None:
+        require(0.0 < self.fov_deg <= 360.0, "fov_deg", self.fov_deg, "a field of view in (0, 360]")
+        _positive("max_range_m", self.max_range_m)
+        _positive("rate_hz", self.rate_hz)
+        _sigma("range_sigma_m", self.range_sigma_m)
+        _sigma("bearing_sigma_deg", self.bearing_sigma_deg)
+        require(0.0 <= self.miss_probability < 1.0, "miss_probability", self.miss_probability,
+                "a probability in [0, 1)")
+        require(self.false_alarm_rate_hz >= 0.0, "false_alarm_rate_hz", self.false_alarm_rate_hz,
+                "a rate >= 0")
+
+    @property
+    def fov_rad(self) -> float:
+        return math.radians(self.fov_deg)
+
+    @property
+    def bearing_sigma_rad(self) -> float:
+        return math.radians(self.bearing_sigma_deg)
+
+
+# ------------------------------------------------------------- companion
+@dataclass(frozen=True)
+class AvoidanceConfig:
+    safety_distance_m: float
+    horizon_s: float
+    eta: float
+    strategy: Literal["cone", "apf"] = "cone"
+    mission_time_s: float | None = None
+    inflation_sigmas: float = 0.0
+    approach_decel_mps2: float = 1.0
+    apf_attraction_gain: float = 1.0
+    apf_repulsion_gain: float = 8.0e4
+    apf_influence_m: float = 20.0
+
+    def __post_init__(self) -> None:
+        _positive("safety_distance_m", self.safety_distance_m)
+        _positive("horizon_s", self.horizon_s)
+        require(self.eta >= 1.0, "eta", self.eta, "a safety factor >= 1")
+        if self.mission_time_s is not None:
+            _positive("mission_time_s", self.mission_time_s)
+        require(self.inflation_sigmas >= 0.0, "inflation_sigmas", self.inflation_sigmas, "a value >= 0")
+        for key in ("approach_decel_mps2", "apf_attraction_gain", "apf_repulsion_gain",
+                    "apf_influence_m"):
+            _positive(key, getattr(self, key))
+
+    def guidance_params(self, cruise_speed_mps: float, goal_radius_m: float) -> GuidanceParams:
+        return GuidanceParams(
+            cruise_speed_mps=cruise_speed_mps, safety_distance_m=self.safety_distance_m,
+            horizon_s=self.horizon_s, eta=self.eta, goal_radius_m=goal_radius_m,
+            mission_time_s=self.mission_time_s, inflation_sigmas=self.inflation_sigmas,
+            approach_decel_mps2=self.approach_decel_mps2,
+            apf_attraction_gain=self.apf_attraction_gain,
+            apf_repulsion_gain=self.apf_repulsion_gain, apf_influence_m=self.apf_influence_m)
+
+
+@dataclass(frozen=True)
+class EstimatorConfig:
+    """Q, R and association gates of the EKF-SLAM (what the filter assumes, not the truth)."""
+    speed_sigma_mps: float
+    heading_change_sigma_deg: float
+    reference_dt_s: float
+    range_sigma_m: float
+    bearing_sigma_deg: float
+    accept_nis: float = AssociationGates().accept_nis
+    new_landmark_nis: float = AssociationGates().new_landmark_nis
+    outlier_nis: float = AssociationGates().outlier_nis
+    initial_position_sigma_m: float = 0.01
+    initial_yaw_sigma_deg: float = 0.01
+
+    def __post_init__(self) -> None:
+        for key in ("speed_sigma_mps", "heading_change_sigma_deg", "range_sigma_m",
+                    "bearing_sigma_deg", "initial_position_sigma_m", "initial_yaw_sigma_deg"):
+            _sigma(key, getattr(self, key))
+        _positive("reference_dt_s", self.reference_dt_s)
+        _positive("accept_nis", self.accept_nis)
+        require(self.new_landmark_nis >= self.accept_nis, "new_landmark_nis", self.new_landmark_nis,
+                f"a gate >= accept_nis ({self.accept_nis})")
+        _positive("outlier_nis", self.outlier_nis)
+
+    def slam_noise(self) -> SlamNoise:
+        return SlamNoise(self.speed_sigma_mps, math.radians(self.heading_change_sigma_deg),
+                         self.reference_dt_s, self.range_sigma_m,
+                         math.radians(self.bearing_sigma_deg))
+
+    def gates(self) -> AssociationGates:
+        return AssociationGates(self.accept_nis, self.new_landmark_nis, self.outlier_nis)
+
+
+@dataclass(frozen=True)
+class MissionConfig:
+    max_time_s: float = 300.0
+
+    def __post_init__(self) -> None:
+        _positive("max_time_s", self.max_time_s)
+
+
+@dataclass(frozen=True)
+class Scenario:
+    name: str
+    world: World
+    vehicle: VehicleConfig
+    noise: NoiseConfig
+    sensor: SensorConfig
+    avoidance: AvoidanceConfig
+    mission: MissionConfig = field(default_factory=MissionConfig)
+    estimator: EstimatorConfig | None = None
+
+    def __post_init__(self) -> None:
+        goal = self.world.goal
+        for i, obs in enumerate(self.world.obstacles):
+            if obs.moving:
+                continue
+            gap = math.hypot(goal.north_m - obs.north_m, goal.east_m - obs.east_m)
+            if gap <= self.avoidance.safety_distance_m:
+                raise FieldError("world.goal", f"the goal lies within the safety distance "
+                                 f"({self.avoidance.safety_distance_m} m) of obstacle {obs.id}: "
+                                 "no safe path can end there")
+
+    def estimator_config(self) -> EstimatorConfig:
+        """The filter's settings: the scenario's own, else matched to its noise and sensor."""
+        if self.estimator is not None:
+            return self.estimator
+        return EstimatorConfig(
+            speed_sigma_mps=self.noise.speed_sigma_mps,
+            heading_change_sigma_deg=self.noise.heading_change_sigma_deg,
+            reference_dt_s=self.vehicle.dt_s, range_sigma_m=self.sensor.range_sigma_m,
+            bearing_sigma_deg=self.sensor.bearing_sigma_deg)
+
+    def guidance_params(self) -> GuidanceParams:
+        return self.avoidance.guidance_params(self.vehicle.speed_mps, self.world.goal.radius_m)
+
+
+def load_scenario(path: str | Path) -> Scenario:
+    """Read and validate a scenario file; a mistake raises ConfigError naming file and key."""
+    return build(Scenario, read_yaml(path), path)
+
+
+__all__ = ["ConfigError", "Scenario", "load_scenario", "AvoidanceConfig", "EstimatorConfig"]

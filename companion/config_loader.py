@@ -1,0 +1,126 @@
+"""Turn YAML mappings into frozen dataclasses, refusing unknown keys and wrong types.
+
+Every error reads ``<file>: <key.path>: <problem>``. Dataclasses validate their own values in
+``__post_init__`` by raising :class:`FieldError` naming the field; the loader adds the file and path.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+import types
+import typing
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from companion.errors import ConfigError
+
+
+class FieldError(ValueError):
+    """A dataclass field holds an impossible value. ``key`` is the field name (or a sub-path)."""
+
+    def __init__(self, key: str, problem: str) -> None:
+        super().__init__(f"{key}: {problem}")
+        self.key = key
+        self.problem = problem
+
+
+def require(condition: bool, key: str, value: Any, expected: str) -> None:
+    """Raise FieldError(key) unless ``condition``: 'expected <expected>, got <value>'."""
+    if not condition:
+        raise FieldError(key, f"expected {expected}, got {value!r}")
+
+
+def read_yaml(path: str | Path) -> dict:
+    """Read a YAML file that must hold a mapping; errors name the file."""
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except OSError as exc:
+        raise ConfigError(f"{path}: cannot read: {exc.strerror or exc}") from None
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f" (line {mark.line + 1}, column {mark.column + 1})" if mark else ""
+        raise ConfigError(f"{path}: not valid YAML{where}: {getattr(exc, 'problem', exc)}") from None
+    if data is None:
+        data = {}
+    if not isinstance(data, dict):
+        raise ConfigError(f"{path}: expected a mapping at the top level, got {type(data).__name__}")
+    return data
+
+
+def build(cls: type, data: Any, file: str | Path, path: str = "") -> Any:
+    """Build dataclass ``cls`` from ``data`` (a mapping), checking keys and types recursively."""
+    where = f"{file}: {path}" if path else f"{file}"
+    if not isinstance(data, dict):
+        raise ConfigError(f"{where}: expected a mapping, got {_describe(data)}")
+    hints = typing.get_type_hints(cls)
+    fields = {f.name: f for f in dataclasses.fields(cls) if f.init}
+    unknown = sorted(set(data) - set(fields))
+    if unknown:
+        raise ConfigError(f"{file}: {_join(path, str(unknown[0]))}: unknown key "
+                          f"(expected one of: {', '.join(sorted(fields))})")
+    kwargs = {}
+    for name, field in fields.items():
+        key_path = _join(path, name)
+        if name not in data:
+            if field.default is dataclasses.MISSING and field.default_factory is dataclasses.MISSING:
+                raise ConfigError(f"{file}: {key_path}: missing")
+            continue
+        kwargs[name] = _convert(hints[name], data[name], file, key_path)
+    try:
+        return cls(**kwargs)
+    except FieldError as exc:
+        raise ConfigError(f"{file}: {_join(path, exc.key)}: {exc.problem}") from None
+
+
+def _join(path: str, key: str) -> str:
+    return f"{path}.{key}" if path else key
+
+
+def _describe(value: Any) -> str:
+    return f"{value!r}" if isinstance(value, (str, int, float, bool)) or value is None \
+        else type(value).__name__
+
+
+def _convert(hint: Any, value: Any, file: str | Path, path: str) -> Any:
+    origin = typing.get_origin(hint)
+    args = typing.get_args(hint)
+    if origin in (typing.Union, types.UnionType):
+        if value is None and type(None) in args:
+            return None
+        inner = [a for a in args if a is not type(None)]
+        return _convert(inner[0], value, file, path)
+    if origin is typing.Literal:
+        if value not in args:
+            raise ConfigError(f"{file}: {path}: expected one of {', '.join(map(str, args))}, "
+                              f"got {_describe(value)}")
+        return value
+    if origin is tuple:
+        if not isinstance(value, list):
+            raise ConfigError(f"{file}: {path}: expected a list, got {_describe(value)}")
+        return tuple(_convert(args[0], item, file, f"{path}[{i}]") for i, item in enumerate(value))
+    if dataclasses.is_dataclass(hint):
+        return build(hint, value, file, path)
+    if hint is float:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise ConfigError(f"{file}: {path}: expected a number, got {_describe(value)}")
+        if not math.isfinite(value):
+            raise ConfigError(f"{file}: {path}: expected a finite number, got {value!r}")
+        return float(value)
+    if hint is int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise ConfigError(f"{file}: {path}: expected an integer, got {_describe(value)}")
+        return value
+    if hint is bool:
+        if not isinstance(value, bool):
+            raise ConfigError(f"{file}: {path}: expected true or false, got {_describe(value)}")
+        return value
+    if hint is str:
+        if not isinstance(value, str):
+            raise ConfigError(f"{file}: {path}: expected a string, got {_describe(value)}")
+        return value
+    raise TypeError(f"unsupported config type {hint!r} at {path}")

@@ -1,0 +1,330 @@
+"""EKF-SLAM over the state [north_m, east_m, yaw_rad, m1_north, m1_east, m2_north, ...].
+
+Departure from the house style, on purpose: the filter is a small mutable object that updates its
+mean and covariance in place. The covariance is (3+2n)^2 numbers; copying it into a frozen result
+at every step would cost more than the update itself (see benchmarks/run.py). What the methods
+return is frozen: :class:`UpdateReport` carries the diagnostics (innovation, NIS, which landmark).
+
+Costs: predict touches only the vehicle rows and columns, O(n). An update is one gather of five
+columns and one rank-4 in-place correction of the covariance (Joseph form), O(n^2) with a single
+pass over the matrix. filterpy's ExtendedKalmanFilter is not used for either: its predict forms
+F P F^T densely (O(n^3)) and its update builds the dense (N, N) I - K H product.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Iterable, Sequence
+
+import numpy as np
+from scipy.stats import chi2
+
+from companion.core.geometry import (move, move_jacobians, place_jacobians, wrap_angle,
+                                     wrap_angles)
+
+POSE_DIM = 3
+LANDMARK_DIM = 2
+
+
+@dataclass(frozen=True)
+class SlamNoise:
+    """Q and R of the filter.
+
+    Q: odometry noise, ``speed_sigma_mps`` per speed sample and ``heading_change_sigma_rad`` per
+    ``reference_dt_s`` of heading change (it accumulates: variance scales with dt).
+    R: ``range_sigma_m`` and ``bearing_sigma_rad`` per observation.
+    """
+    speed_sigma_mps: float
+    heading_change_sigma_rad: float
+    reference_dt_s: float
+    range_sigma_m: float
+    bearing_sigma_rad: float
+
+    def measurement_cov(self) -> np.ndarray:
+        """R, (2,2)."""
+        return np.diag([self.range_sigma_m ** 2, self.bearing_sigma_rad ** 2])
+
+
+@dataclass(frozen=True)
+class AssociationGates:
+    """Gates on the normalised innovation squared (chi-square, 2 degrees of freedom).
+
+    An observation with NIS <= ``accept_nis`` against its nearest landmark updates it; one whose
+    NIS exceeds ``new_landmark_nis`` against every landmark starts a new one; in between it is
+    ambiguous and dropped. ``outlier_nis`` rejects an id-associated observation that disagrees
+    grossly with its landmark (a glitch, or a mover).
+    """
+    accept_nis: float = float(chi2.ppf(0.99, 2))
+    new_landmark_nis: float = float(chi2.ppf(0.99999, 2))
+    outlier_nis: float = float(chi2.ppf(0.99999, 2))
+
+    def __post_init__(self) -> None:
+        if not 0.0 < self.accept_nis <= self.new_landmark_nis:
+            raise ValueError("gates must satisfy 0 < accept_nis <= new_landmark_nis")
+
+
+@dataclass(frozen=True)
+class Observation:
+    """One range-bearing observation of an obstacle centre, bearing from the heading, right positive."""
+    range_m: float
+    bearing_rad: float
+    obstacle_id: int | None = None
+
+
+@dataclass(frozen=True)
+class UpdateReport:
+    """What one observation did. ``action``: 'updated', 'added', 'ambiguous' or 'outlier'."""
+    action: str
+    landmark_index: int | None
+    innovation: tuple[float, float] | None
+    nis: float | None
+    obstacle_id: int | None
+
+
+class EkfSlam:
+    """EKF-SLAM with known-id or gated nearest-neighbour data association.
+
+    ``pose``: initial (3,) [north_m, east_m, yaw_rad]; ``pose_cov``: its (3,3) covariance.
+    """
+
+    def __init__(self, pose: Sequence[float], pose_cov: np.ndarray, noise: SlamNoise,
+                 gates: AssociationGates = AssociationGates(), capacity: int = 16) -> None:
+        self.noise = noise
+        self.gates = gates
+        self._meas_cov = noise.measurement_cov()
+        cap = POSE_DIM + LANDMARK_DIM * max(capacity, 1)
+        self._mean_buf = np.zeros(cap)
+        self._cov_buf = np.zeros((cap, cap))
+        self._dim = POSE_DIM
+        self._mean_buf[:3] = pose
+        self._mean_buf[2] = wrap_angle(self._mean_buf[2])
+        self._cov_buf[:3, :3] = pose_cov
+        self._id_to_index: dict[int, int] = {}
+        self._index_to_id: list[int | None] = []
+
+    # ----------------------------------------------------------------- views
+    @property
+    def mean(self) -> np.ndarray:
+        """The state mean (3+2n,), a view: do not modify."""
+        return self._mean_buf[:self._dim]
+
+    @property
+    def cov(self) -> np.ndarray:
+        """The state covariance (3+2n, 3+2n), a view: do not modify."""
+        return self._cov_buf[:self._dim, :self._dim]
+
+    @property
+    def pose(self) -> np.ndarray:
+        return self._mean_buf[:3].copy()
+
+    @property
+    def pose_cov(self) -> np.ndarray:
+        return self._cov_buf[:3, :3].copy()
+
+    @property
+    def landmark_count(self) -> int:
+        return (self._dim - POSE_DIM) // LANDMARK_DIM
+
+    def landmarks(self) -> np.ndarray:
+        """Landmark means, (n, 2) copy."""
+        return self._mean_buf[POSE_DIM:self._dim].reshape(-1, 2).copy()
+
+    def landmark_covs(self) -> np.ndarray:
+        """Landmark marginal covariances, (n, 2, 2)."""
+        idx = POSE_DIM + LANDMARK_DIM * np.arange(self.landmark_count)
+        cov = self.cov
+        out = np.empty((len(idx), 2, 2))
+        out[:, 0, 0] = cov[idx, idx]
+        out[:, 0, 1] = out[:, 1, 0] = cov[idx, idx + 1]
+        out[:, 1, 1] = cov[idx + 1, idx + 1]
+        return out
+
+    def relative_covs(self) -> np.ndarray:
+        """Covariance of (landmark - vehicle position) for every landmark, (n, 2, 2).
+
+        This, not the landmark's own covariance, is what the avoidance needs: SLAM correlates the
+        two, so the relative position is often much better known than either alone.
+        """
+        n = self.landmark_count
+        cov = self.cov
+        cross = cov[:2, POSE_DIM:].reshape(2, n, 2).transpose(1, 0, 2)  # (n, 2, 2): P_pm
+        return self.landmark_covs() + cov[:2, :2] - cross - cross.transpose(0, 2, 1)
+
+    def landmark_ids(self) -> list[int | None]:
+        return list(self._index_to_id)
+
+    # --------------------------------------------------------------- predict
+    def predict(self, speed_mps: float, heading_change_rad: float, dt_s: float) -> None:
+        """Propagate through the motion model with the odometry control [v, gamma].
+
+        Touches only the vehicle rows and columns of the covariance: O(n), not O(n^2).
+        Speed noise is per sample (a held sample's error persists over its dt); heading-change
+        noise accumulates, so its variance scales with dt / reference_dt.
+        """
+        if dt_s <= 0.0:
+            return
+        dim = self._dim
+        pose = self._mean_buf[:3]
+        jac_pose, jac_control = move_jacobians(pose, speed_mps, heading_change_rad, dt_s)
+        self._mean_buf[:3] = move(pose, speed_mps, heading_change_rad, dt_s)
+        control_var = np.array([self.noise.speed_sigma_mps ** 2,
+                                self.noise.heading_change_sigma_rad ** 2
+                                * dt_s / self.noise.reference_dt_s])
+        cov = self._cov_buf
+        pose_cov = jac_pose @ cov[:3, :3] @ jac_pose.T + (jac_control * control_var) @ jac_control.T
+        cov[:3, :3] = pose_cov
+        if dim > POSE_DIM:
+            cross = jac_pose @ cov[:3, POSE_DIM:dim]
+            cov[:3, POSE_DIM:dim] = cross
+            cov[POSE_DIM:dim, :3] = cross.T
+
+    # ---------------------------------------------------------------- update
+    def update_frame(self, observations: Iterable[Observation]) -> list[UpdateReport]:
+        """Process one camera frame. Without ids, each landmark takes at most one observation."""
+        used: set[int] = set()
+        reports = []
+        for obs in observations:
+            report = self.update(obs, exclude=used)
+            if report.landmark_index is not None:
+                used.add(report.landmark_index)
+            reports.append(report)
+        return reports
+
+    def update(self, obs: Observation, exclude: set[int] | None = None) -> UpdateReport:
+        """Associate one observation and update, or add a landmark, or drop it."""
+        z = np.array([obs.range_m, obs.bearing_rad])
+        if obs.obstacle_id is not None:
+            index = self._id_to_index.get(obs.obstacle_id)
+            if index is None:
+                return self._add(z, obs.obstacle_id)
+            nis, innovation = self.nis_against(z, index)
+            if nis > self.gates.outlier_nis:
+                return UpdateReport("outlier", index, tuple(innovation), nis, obs.obstacle_id)
+            return self._correct(z, index, obs.obstacle_id)
+        if self.landmark_count == 0:
+            return self._add(z, None)
+        nis_all, _ = self.nis_all(z)
+        if exclude:
+            nis_all[list(exclude)] = np.inf
+        best = int(np.argmin(nis_all))
+        best_nis = float(nis_all[best])
+        if best_nis <= self.gates.accept_nis:
+            return self._correct(z, best, None)
+        if best_nis > self.gates.new_landmark_nis:
+            return self._add(z, None)
+        return UpdateReport("ambiguous", best, None, best_nis, None)
+
+    def nis_all(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """NIS of measurement z (2,) against every landmark, vectorised: ((n,), (n, 2) innovations)."""
+        n = self.landmark_count
+        mean, cov = self.mean, self.cov
+        lm = mean[POSE_DIM:].reshape(n, 2)
+        d = lm - mean[:2]
+        range_sq = np.einsum("ij,ij->i", d, d)
+        range_m = np.sqrt(range_sq)
+        innovation = np.empty((n, 2))
+        innovation[:, 0] = z[0] - range_m
+        innovation[:, 1] = wrap_angles(z[1] - (np.arctan2(d[:, 1], d[:, 0]) - mean[2]))
+        # H_m (n,2,2) and H_v = [-H_m | (0, -1)^T]
+        jac_lm = np.empty((n, 2, 2))
+        jac_lm[:, 0, 0] = d[:, 0] / range_m
+        jac_lm[:, 0, 1] = d[:, 1] / range_m
+        jac_lm[:, 1, 0] = -d[:, 1] / range_sq
+        jac_lm[:, 1, 1] = d[:, 0] / range_sq
+        jac_pose = np.zeros((n, 2, 3))
+        jac_pose[:, :, :2] = -jac_lm
+        jac_pose[:, 1, 2] = -1.0
+        cross = cov[:3, POSE_DIM:].reshape(3, n, 2).transpose(1, 0, 2)      # P_vm, (n,3,2)
+        mixed = jac_pose @ cross @ jac_lm.transpose(0, 2, 1)              # H_v P_vm H_m^T
+        s = (jac_pose @ cov[:3, :3] @ jac_pose.transpose(0, 2, 1)
+             + mixed + mixed.transpose(0, 2, 1)
+             + jac_lm @ self.landmark_covs() @ jac_lm.transpose(0, 2, 1)
+             + self._meas_cov)
+        det = s[:, 0, 0] * s[:, 1, 1] - s[:, 0, 1] * s[:, 1, 0]
+        nis = (s[:, 1, 1] * innovation[:, 0] ** 2
+               - (s[:, 0, 1] + s[:, 1, 0]) * innovation[:, 0] * innovation[:, 1]
+               + s[:, 0, 0] * innovation[:, 1] ** 2) / det
+        return nis, innovation
+
+    def nis_against(self, z: np.ndarray, index: int) -> tuple[float, np.ndarray]:
+        """NIS and innovation of z against one landmark."""
+        _, innovation, s, _ = self._innovation(z, index)
+        return float(innovation @ np.linalg.solve(s, innovation)), innovation
+
+    def _innovation(self, z: np.ndarray, index: int):
+        """Innovation (2,), S (2,2), P H^T (N,2) and the five state indices it involves."""
+        mean = self._mean_buf
+        s0 = POSE_DIM + LANDMARK_DIM * index
+        d_north = mean[s0] - mean[0]
+        d_east = mean[s0 + 1] - mean[1]
+        range_sq = d_north * d_north + d_east * d_east
+        range_m = math.sqrt(range_sq)
+        innovation = np.array([z[0] - range_m,
+                               wrap_angle(z[1] - (math.atan2(d_east, d_north) - mean[2]))])
+        jac = np.array([[-d_north / range_m, -d_east / range_m, 0.0, d_north / range_m, d_east / range_m],
+                        [d_east / range_sq, -d_north / range_sq, -1.0, -d_east / range_sq, d_north / range_sq]])
+        cols = np.array([0, 1, 2, s0, s0 + 1])
+        p_ht = self.cov[:, cols] @ jac.T                          # (N, 2)
+        s = jac @ p_ht[cols] + self._meas_cov
+        return cols, innovation, s, p_ht
+
+    def _correct(self, z: np.ndarray, index: int, obstacle_id: int | None) -> UpdateReport:
+        """Kalman update of one landmark; Joseph form, applied in place as one rank-4 correction.
+
+        Joseph: P <- (I-KH) P (I-KH)^T + K R K^T = P - K PHt^T - PHt K^T + K S K^T
+                  = P - (K B^T + B K^T) with B = PHt - K S / 2,
+        which stays symmetric positive semi-definite to rounding even when K is slightly off.
+        """
+        _, innovation, s, p_ht = self._innovation(z, index)
+        s_inv = np.linalg.inv(s)
+        gain = p_ht @ s_inv                                        # K, (N, 2)
+        dim = self._dim
+        self._mean_buf[:dim] += gain @ innovation
+        self._mean_buf[2] = wrap_angle(self._mean_buf[2])
+        half = p_ht - 0.5 * gain @ s                               # B, (N, 2)
+        left = np.concatenate((gain, half), axis=1)                # (N, 4)
+        right = np.concatenate((half, gain), axis=1)
+        self._cov_buf[:dim, :dim] -= left @ right.T
+        nis = float(innovation @ s_inv @ innovation)
+        return UpdateReport("updated", index, (float(innovation[0]), float(innovation[1])),
+                            nis, obstacle_id)
+
+    def _add(self, z: np.ndarray, obstacle_id: int | None) -> UpdateReport:
+        """Initialise a landmark from one observation, with its full cross-covariance."""
+        self._reserve(self._dim + LANDMARK_DIM)
+        dim = self._dim
+        pose = self._mean_buf[:3]
+        direction = pose[2] + z[1]
+        position = (pose[0] + z[0] * math.cos(direction), pose[1] + z[0] * math.sin(direction))
+        jac_pose, jac_meas = place_jacobians(pose, z)
+        cov = self._cov_buf
+        cross = jac_pose @ cov[:3, :dim]                          # (2, N): cov(new, old state)
+        new_cov = jac_pose @ cov[:3, :3] @ jac_pose.T + jac_meas @ self._meas_cov @ jac_meas.T
+        self._mean_buf[dim:dim + 2] = position
+        cov[dim:dim + 2, :dim] = cross
+        cov[:dim, dim:dim + 2] = cross.T
+        cov[dim:dim + 2, dim:dim + 2] = new_cov
+        self._dim = dim + LANDMARK_DIM
+        index = len(self._index_to_id)
+        self._index_to_id.append(obstacle_id)
+        if obstacle_id is not None:
+            self._id_to_index[obstacle_id] = index
+        return UpdateReport("added", index, None, None, obstacle_id)
+
+    def _reserve(self, dim: int) -> None:
+        cap = self._cov_buf.shape[0]
+        if dim <= cap:
+            return
+        new_cap = max(dim, 2 * cap - POSE_DIM)
+        mean = np.zeros(new_cap)
+        cov = np.zeros((new_cap, new_cap))
+        mean[:self._dim] = self.mean
+        cov[:self._dim, :self._dim] = self.cov
+        self._mean_buf, self._cov_buf = mean, cov
+
+    # ------------------------------------------------------------- health
+    def is_healthy(self) -> bool:
+        """Finite mean and covariance, covariance with a non-negative diagonal."""
+        mean, cov = self.mean, self.cov
+        return bool(np.all(np.isfinite(mean)) and np.all(np.isfinite(cov))
+                    and np.all(np.diag(cov) >= 0.0))

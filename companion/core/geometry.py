@@ -1,0 +1,98 @@
+"""The paper's 2D kinematic and range-bearing models, with their Jacobians.
+
+Frame: MAVLink LOCAL_NED. ``x`` is metres north, ``y`` metres east, ``psi`` the yaw in radians,
+clockwise from north. A bearing is measured from the vehicle's heading, positive to the right
+(the BODY_FRD convention: ``bearing = atan2(y_frd, x_frd)``).
+
+Pure functions of numpy arrays; no I/O, no clocks.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+TWO_PI = 2.0 * math.pi
+
+
+def wrap_angle(angle_rad: float) -> float:
+    """Wrap an angle to [-pi, pi)."""
+    return (angle_rad + math.pi) % TWO_PI - math.pi
+
+
+def wrap_angles(angles_rad: np.ndarray) -> np.ndarray:
+    """Vectorised :func:`wrap_angle`."""
+    return (np.asarray(angles_rad) + math.pi) % TWO_PI - math.pi
+
+
+def move(pose: np.ndarray, speed_mps: float, heading_change_rad: float, dt_s: float) -> np.ndarray:
+    """The paper's motion model f(Xv, u): turn by ``heading_change_rad`` then fly ``speed*dt``.
+
+    pose: (3,) [north_m, east_m, yaw_rad]. Returns a new (3,) pose, yaw wrapped.
+    """
+    course = pose[2] + heading_change_rad
+    step_m = speed_mps * dt_s
+    return np.array([pose[0] + step_m * math.cos(course),
+                     pose[1] + step_m * math.sin(course),
+                     wrap_angle(course)])
+
+
+def move_jacobians(pose: np.ndarray, speed_mps: float, heading_change_rad: float,
+                   dt_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """Jacobians of :func:`move`: (3,3) with respect to the pose, (3,2) to the control [v, gamma]."""
+    course = pose[2] + heading_change_rad
+    c, s = math.cos(course), math.sin(course)
+    step_m = speed_mps * dt_s
+    jac_pose = np.array([[1.0, 0.0, -step_m * s],
+                         [0.0, 1.0, step_m * c],
+                         [0.0, 0.0, 1.0]])
+    jac_control = np.array([[dt_s * c, -step_m * s],
+                            [dt_s * s, step_m * c],
+                            [0.0, 1.0]])
+    return jac_pose, jac_control
+
+
+def observe(pose: np.ndarray, landmark: np.ndarray) -> np.ndarray:
+    """Range-bearing observation h(Xv, m): (2,) [range_m, bearing_rad], bearing wrapped."""
+    d_north = landmark[0] - pose[0]
+    d_east = landmark[1] - pose[1]
+    return np.array([math.hypot(d_north, d_east),
+                     wrap_angle(math.atan2(d_east, d_north) - pose[2])])
+
+
+def observe_jacobians(pose: np.ndarray, landmark: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Jacobians of :func:`observe`: (2,3) with respect to the pose, (2,2) to the landmark."""
+    d_north = landmark[0] - pose[0]
+    d_east = landmark[1] - pose[1]
+    range_sq = d_north * d_north + d_east * d_east
+    range_m = math.sqrt(range_sq)
+    jac_landmark = np.array([[d_north / range_m, d_east / range_m],
+                             [-d_east / range_sq, d_north / range_sq]])
+    jac_pose = np.empty((2, 3))
+    jac_pose[:, :2] = -jac_landmark
+    jac_pose[:, 2] = (0.0, -1.0)
+    return jac_pose, jac_landmark
+
+
+def place(pose: np.ndarray, measurement: np.ndarray) -> np.ndarray:
+    """Inverse observation g(Xv, z): the landmark position (2,) seen at [range_m, bearing_rad]."""
+    direction = pose[2] + measurement[1]
+    return np.array([pose[0] + measurement[0] * math.cos(direction),
+                     pose[1] + measurement[0] * math.sin(direction)])
+
+
+def place_jacobians(pose: np.ndarray, measurement: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Jacobians of :func:`place`: (2,3) with respect to the pose, (2,2) to the measurement."""
+    direction = pose[2] + measurement[1]
+    c, s = math.cos(direction), math.sin(direction)
+    r = measurement[0]
+    jac_pose = np.array([[1.0, 0.0, -r * s],
+                         [0.0, 1.0, r * c]])
+    jac_measurement = np.array([[c, -r * s],
+                                [s, r * c]])
+    return jac_pose, jac_measurement
+
+
+def is_visible(range_m: float, bearing_rad: float, fov_rad: float, max_range_m: float) -> bool:
+    """True when a point at (range, bearing) lies inside the sensor's field of view and range."""
+    return 0.0 < range_m <= max_range_m and abs(bearing_rad) <= 0.5 * fov_rad

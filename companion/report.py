@@ -1,0 +1,51 @@
+"""Writing and printing run reports (shared by simulate, demo, replay and campaigns)."""
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import TextIO
+
+
+def _clean(value):
+    """JSON has no inf or NaN: write them as null."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if isinstance(value, dict):
+        return {k: _clean(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_clean(v) for v in value]
+    return value
+
+
+def write_json(path: str | Path, report: dict) -> None:
+    Path(path).write_text(json.dumps(_clean(report), indent=2) + "\n")
+
+
+def _fmt(value, unit: str = "") -> str:
+    if value is None:
+        return "n/a"
+    if isinstance(value, float):
+        return f"{value:.2f}{unit}"
+    return f"{value}{unit}"
+
+
+def print_summary(report: dict, out: TextIO) -> None:
+    """A short human summary of a report's aggregate."""
+    agg = report["aggregate"]
+    clear = agg.get("min_clearance_m", {})
+    err = agg.get("final_position_error_m", {})
+    lines = [
+        f"runs: {agg.get('runs')}   success rate: {_fmt(agg.get('success_rate'))}"
+        f"   collision rate: {_fmt(agg.get('collision_rate'))}",
+        f"closest approach to an obstacle centre: min {_fmt(clear.get('min'), ' m')}, "
+        f"p5 {_fmt(clear.get('p5'), ' m')}, median {_fmt(clear.get('median'), ' m')}",
+        f"final position error: median {_fmt(err.get('median'), ' m')}, "
+        f"p95 {_fmt(err.get('p95'), ' m')}, max {_fmt(err.get('max'), ' m')}",
+    ]
+    nees = agg.get("nees")
+    if nees and nees.get("mean") is not None:
+        lo, hi = nees["band"]
+        lines.append(f"pose NEES: mean {nees['mean']:.2f} (3 dof), in the 95% band "
+                     f"[{lo:.2f}, {hi:.2f}] on {100 * nees['in_band_fraction']:.0f}% of steps")
+    out.write("\n".join(lines) + "\n")

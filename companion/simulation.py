@@ -1,0 +1,178 @@
+"""``companion simulate``: the closed loop in-process, without MAVLink.
+
+A truth world with its own random source, an estimator that sees only noisy odometry and noisy
+observations, and guidance acting on the estimate. One run per seed; aggregates over runs.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.stats import chi2
+
+from companion.config import Scenario
+from companion.core.geometry import wrap_angle
+from companion.core.guidance import limit_turn
+from companion.core.navigator import Navigator
+from companion.truth import TruthWorld
+
+# A run reaches the goal when the vehicle declares arrival (estimate within goal.radius_m) and the
+# true position is then within goal.radius_m plus this allowance for the estimate's own error
+# (the paper's "error less than 2 m").
+ARRIVAL_ALLOWANCE_M = 2.0
+
+
+@dataclass
+class Trace:
+    """Per-step arrays of one run, for plots and NEES."""
+    t_s: list = field(default_factory=list)
+    true_pose: list = field(default_factory=list)
+    est_pose: list = field(default_factory=list)
+    pose_nees: list = field(default_factory=list)
+
+
+@dataclass
+class RunOutcome:
+    summary: dict
+    trace: Trace
+    landmarks: np.ndarray
+    landmark_covs: np.ndarray
+    obstacles: np.ndarray
+
+
+def make_navigator(scenario: Scenario, strategy: str | None = None) -> Navigator:
+    est = scenario.estimator_config()
+    start = scenario.world.start
+    pose = np.array([start.north_m, start.east_m, wrap_angle(start.yaw_rad)])
+    pose_cov = np.diag([est.initial_position_sigma_m ** 2, est.initial_position_sigma_m ** 2,
+                        math.radians(est.initial_yaw_sigma_deg) ** 2])
+    goal = np.array([scenario.world.goal.north_m, scenario.world.goal.east_m])
+    return Navigator(pose, pose_cov, est.slam_noise(), est.gates(), scenario.guidance_params(),
+                     goal, strategy or scenario.avoidance.strategy)
+
+
+def pose_nees(true_pose: np.ndarray, est_pose: np.ndarray, cov: np.ndarray) -> float:
+    error = true_pose - est_pose
+    error[2] = wrap_angle(error[2])
+    return float(error @ np.linalg.solve(cov, error))
+
+
+def run_once(scenario: Scenario, seed: int, strategy: str | None = None) -> RunOutcome:
+    """Fly one seeded run of the scenario in-process."""
+    truth = TruthWorld(scenario, np.random.default_rng(seed))
+    nav = make_navigator(scenario, strategy)
+    vehicle = scenario.vehicle
+    dt = vehicle.dt_s
+    obs_every = max(1, round(1.0 / (scenario.sensor.rate_hz * dt)))
+    max_steps = int(math.ceil(scenario.mission.max_time_s / dt))
+    trace = Trace()
+    min_clearance = math.inf
+    collided = False
+    urgent_events = 0
+    path_m = 0.0
+    max_err = 0.0
+    arrived = False
+    nav.observe(truth.observe())
+    for step in range(1, max_steps + 1):
+        command, change = nav.decide(truth.t_s)
+        if change is not None and change.landmark_index is not None:
+            urgent_events += 1
+        if command.mode == "arrived":
+            arrived = True
+            break
+        est_heading = nav.slam.mean[2]
+        gamma = limit_turn(est_heading, command.heading_rad, vehicle.max_turn_rate_rad_s, dt)
+        before = truth.pose[:2].copy()
+        odo = truth.step(command.speed_mps, gamma)
+        path_m += float(np.hypot(*(truth.pose[:2] - before)))
+        nav.predict(odo.speed_mps, odo.heading_change_rad, dt)
+        if step % obs_every == 0:
+            nav.observe(truth.observe())
+        gaps = np.hypot(*(truth.obstacle_positions() - truth.pose[:2]).T) if len(truth.obstacle_ids) else np.array([])
+        if gaps.size:
+            min_clearance = min(min_clearance, float(gaps.min()))
+            collided = collided or bool(np.any(gaps < truth.obstacle_radii))
+        est = nav.slam.pose
+        max_err = max(max_err, float(np.hypot(*(est[:2] - truth.pose[:2]))))
+        trace.t_s.append(truth.t_s)
+        trace.true_pose.append(truth.pose.copy())
+        trace.est_pose.append(est)
+        trace.pose_nees.append(pose_nees(truth.pose, est, nav.slam.pose_cov))
+    goal = np.array([scenario.world.goal.north_m, scenario.world.goal.east_m])
+    final_goal_distance = float(np.hypot(*(truth.pose[:2] - goal)))
+    reached = arrived and final_goal_distance <= scenario.world.goal.radius_m + ARRIVAL_ALLOWANCE_M
+    est = nav.slam.pose
+    summary = {
+        "seed": seed,
+        "reached_goal": bool(reached),
+        "time_s": round(truth.t_s, 6),
+        "min_clearance_m": min_clearance if math.isfinite(min_clearance) else None,
+        "collided": collided,
+        "final_goal_distance_m": final_goal_distance,
+        "final_position_error_m": float(np.hypot(*(est[:2] - truth.pose[:2]))),
+        "max_position_error_m": max_err,
+        "landmark_errors_m": landmark_errors(nav, truth),
+        "urgent_events": urgent_events,
+        "path_length_m": path_m,
+    }
+    return RunOutcome(summary, trace, nav.slam.landmarks(), nav.slam.landmark_covs(),
+                      truth.obstacle_positions())
+
+
+def landmark_errors(nav: Navigator, truth: TruthWorld) -> list[float]:
+    """Error of each mapped obstacle: by id when ids are known, else the nearest landmark."""
+    landmarks = nav.slam.landmarks()
+    ids = nav.slam.landmark_ids()
+    errors = []
+    for oid, centre in zip(truth.obstacle_ids, truth.obstacle_positions()):
+        if oid in ids:
+            errors.append(float(np.hypot(*(landmarks[ids.index(oid)] - centre))))
+        elif len(landmarks) and None in ids:
+            gaps = np.hypot(*(landmarks - centre).T)
+            if gaps.min() < 5.0:
+                errors.append(float(gaps.min()))
+    return errors
+
+
+def nees_band(runs: int, dim: int = 3, confidence: float = 0.95) -> tuple[float, float]:
+    """Two-sided band for the NEES averaged over ``runs`` runs (chi-square with runs*dim dof)."""
+    tail = (1.0 - confidence) / 2.0
+    lo, hi = chi2.ppf([tail, 1.0 - tail], runs * dim)
+    return float(lo / runs), float(hi / runs)
+
+
+def aggregate(outcomes: list[RunOutcome], safety_distance_m: float) -> dict:
+    """The aggregate block of the JSON report."""
+    summaries = [o.summary for o in outcomes]
+    clearances = np.array([s["min_clearance_m"] if s["min_clearance_m"] is not None else math.inf
+                           for s in summaries])
+    errors = np.array([s["final_position_error_m"] for s in summaries])
+    success = [s["reached_goal"] and c >= 0.95 * safety_distance_m
+               for s, c in zip(summaries, clearances)]
+    steps = min(len(o.trace.pose_nees) for o in outcomes)
+    nees = np.array([o.trace.pose_nees[:steps] for o in outcomes]).reshape(len(outcomes), steps)
+    avg = nees.mean(axis=0) if steps else np.array([])
+    lo, hi = nees_band(len(outcomes))
+    finite_clear = clearances[np.isfinite(clearances)]
+    return {
+        "runs": len(outcomes),
+        "success_rate": float(np.mean(success)),
+        "collision_rate": float(np.mean([s["collided"] for s in summaries])),
+        "min_clearance_m": {
+            "min": float(finite_clear.min()) if finite_clear.size else None,
+            "p5": float(np.percentile(finite_clear, 5)) if finite_clear.size else None,
+            "median": float(np.median(finite_clear)) if finite_clear.size else None,
+        },
+        "final_position_error_m": {
+            "median": float(np.median(errors)), "p95": float(np.percentile(errors, 95)),
+            "max": float(errors.max()),
+        },
+        "nees": {
+            "mean": float(avg.mean()) if avg.size else None,
+            "in_band_fraction": float(np.mean((avg > lo) & (avg < hi))) if avg.size else None,
+            "band": [lo, hi],
+            "steps": int(steps),
+        },
+        "path_length_m": {"median": float(np.median([s["path_length_m"] for s in summaries]))},
+    }

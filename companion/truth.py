@@ -1,0 +1,82 @@
+"""The in-process truth world of ``companion simulate``: the vehicle and the camera, with noise.
+
+Only the simulation uses this; the estimator sees what it returns (noisy odometry and noisy
+observations), never the state. It has its own random source, seeded per run.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from companion.config import Scenario
+from companion.core.ekf_slam import Observation
+from companion.core.geometry import is_visible, move, wrap_angle
+
+
+@dataclass(frozen=True)
+class Odometry:
+    """What the autopilot reports for one step: speed and heading change, both noisy."""
+    speed_mps: float
+    heading_change_rad: float
+
+
+class TruthWorld:
+    """The vehicle's true pose and speed, the obstacles' true positions, and the sensors."""
+
+    def __init__(self, scenario: Scenario, rng: np.random.Generator) -> None:
+        self.scenario = scenario
+        self.rng = rng
+        start = scenario.world.start
+        self.pose = np.array([start.north_m, start.east_m, wrap_angle(start.yaw_rad)])
+        self.speed_mps = scenario.vehicle.speed_mps   # the paper starts already cruising
+        self.t_s = 0.0
+        obstacles = scenario.world.obstacles
+        self._obstacle_start = np.array([[o.north_m, o.east_m] for o in obstacles]).reshape(-1, 2)
+        self._obstacle_vel = np.array([[o.vel_north_mps, o.vel_east_mps]
+                                       for o in obstacles]).reshape(-1, 2)
+        self.obstacle_radii = np.array([o.radius_m for o in obstacles])
+        self.obstacle_ids = [o.id for o in obstacles]
+
+    def obstacle_positions(self) -> np.ndarray:
+        """True obstacle centres now, (n, 2)."""
+        return self._obstacle_start + self._obstacle_vel * self.t_s
+
+    def step(self, speed_cmd_mps: float, heading_change_rad: float) -> Odometry:
+        """Advance one vehicle.dt_s: accel-limited speed, the given (already limited) heading change."""
+        vehicle = self.scenario.vehicle
+        dt = vehicle.dt_s
+        max_dv = vehicle.max_accel_mps2 * dt
+        self.speed_mps += max(-max_dv, min(max_dv, speed_cmd_mps - self.speed_mps))
+        self.pose = move(self.pose, self.speed_mps, heading_change_rad, dt)
+        self.t_s += dt
+        noise = self.scenario.noise
+        if self.speed_mps == 0.0 and heading_change_rad == 0.0:
+            return Odometry(0.0, 0.0)       # a vehicle at rest knows it is still
+        return Odometry(
+            self.speed_mps + self.rng.normal(0.0, noise.speed_sigma_mps),
+            heading_change_rad + self.rng.normal(0.0, math.radians(noise.heading_change_sigma_deg)))
+
+    def observe(self) -> list[Observation]:
+        """One camera frame: every obstacle centre in view, with R noise, misses, false alarms."""
+        sensor = self.scenario.sensor
+        rng = self.rng
+        frame = []
+        for oid, centre in zip(self.obstacle_ids, self.obstacle_positions()):
+            d = centre - self.pose[:2]
+            range_m = math.hypot(d[0], d[1])
+            bearing = wrap_angle(math.atan2(d[1], d[0]) - self.pose[2])
+            if not is_visible(range_m, bearing, sensor.fov_rad, sensor.max_range_m):
+                continue
+            if sensor.miss_probability and rng.random() < sensor.miss_probability:
+                continue
+            frame.append(Observation(
+                range_m + rng.normal(0.0, sensor.range_sigma_m),
+                wrap_angle(bearing + rng.normal(0.0, sensor.bearing_sigma_rad)),
+                oid if sensor.report_ids else None))
+        if sensor.false_alarm_rate_hz:
+            for _ in range(rng.poisson(sensor.false_alarm_rate_hz / sensor.rate_hz)):
+                frame.append(Observation(rng.uniform(0.5, sensor.max_range_m),
+                                         rng.uniform(-0.5, 0.5) * sensor.fov_rad, None))
+        return frame
