@@ -5,12 +5,20 @@ it (the in-process truth world, MAVLink, a tlog) cannot be told apart from here.
 """
 from __future__ import annotations
 
+import math
+from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
 
 from companion.core.ekf_slam import AssociationGates, EkfSlam, Observation, SlamNoise, UpdateReport
+from companion.core.geometry import wrap_angle
 from companion.core.guidance import GuidanceCommand, GuidanceParams, guide_apf, guide_cone
+
+# An observation frame stamped at most this much after the last odometry is processed at once
+# (the pose is that close); a later one waits for the odometry that covers its time.
+SAME_TIME_TOLERANCE_S = 1e-3
+MAX_PENDING_FRAMES = 8
 
 
 @dataclass(frozen=True)
@@ -35,6 +43,52 @@ class Navigator:
         self.goal = np.asarray(goal, dtype=float)
         self.strategy = strategy
         self._urgent: int | None = None
+        self.t_s: float | None = None          # time of the last odometry the filter has absorbed
+        self._yaw_rad: float | None = None
+        self._pending: deque[tuple[float, list[Observation]]] = deque()
+        self.rejected: dict[str, int] = {}
+
+    # ------------------------------------------------------ timed inputs
+    # The live service and the replay feed messages through these two methods, stamped with the
+    # messages' own clock (time_boot_ms), so the same stream gives the same estimates anywhere.
+    def on_odometry(self, t_s: float, speed_mps: float, yaw_rad: float) -> list[UpdateReport]:
+        """Absorb one odometry sample: the speed over the interval ending at ``t_s`` and the
+        autopilot's (gyro-integrated) yaw at ``t_s``. The heading change is the yaw difference, so
+        a lost sample costs no heading. Then process any observation frames this time covers.
+        """
+        if not (math.isfinite(t_s) and math.isfinite(speed_mps) and math.isfinite(yaw_rad)) \
+                or speed_mps < 0.0:
+            self._reject("odometry_not_finite")
+            return []
+        if self.t_s is None:
+            self.t_s, self._yaw_rad = t_s, yaw_rad
+            return self._release()
+        dt = t_s - self.t_s
+        if dt <= 0.0:
+            self._reject("odometry_not_newer")
+            return []
+        self.predict(speed_mps, wrap_angle(yaw_rad - self._yaw_rad), dt)
+        self.t_s, self._yaw_rad = t_s, yaw_rad
+        return self._release()
+
+    def on_observations(self, t_s: float, observations: list[Observation]) -> list[UpdateReport]:
+        """One camera frame captured at ``t_s``; waits if the odometry has not reached ``t_s``."""
+        if self.t_s is not None and t_s <= self.t_s + SAME_TIME_TOLERANCE_S:
+            return self.observe(observations)
+        if len(self._pending) >= MAX_PENDING_FRAMES:
+            self._pending.popleft()
+            self._reject("frame_overflow")
+        self._pending.append((t_s, observations))
+        return []
+
+    def _release(self) -> list[UpdateReport]:
+        reports: list[UpdateReport] = []
+        while self._pending and self._pending[0][0] <= self.t_s + SAME_TIME_TOLERANCE_S:
+            reports.extend(self.observe(self._pending.popleft()[1]))
+        return reports
+
+    def _reject(self, kind: str) -> None:
+        self.rejected[kind] = self.rejected.get(kind, 0) + 1
 
     def predict(self, speed_mps: float, heading_change_rad: float, dt_s: float) -> None:
         self.slam.predict(speed_mps, heading_change_rad, dt_s)
