@@ -1,0 +1,229 @@
+"""sitl-stub: the paper's 2D model behind an ArduCopter-like MAVLink face.
+
+    sitl-stub --scenario PATH [--tcp HOST:PORT|none] [--udp HOST:PORT] [--speedup N] [--seed S]
+              [--truth-log PATH] [--drop-rate P] [--sysid N] [--signing-key FILE] [--streams-off]
+
+Prints exactly one line to stdout once listening: `SITL_STUB READY tcp=HOST:PORT udp=HOST:PORT`
+(`-` for a disabled endpoint). Logs go to stderr. Exit 0 on SIGTERM/SIGINT, 2 on a bad scenario,
+bad option or a port that cannot be bound.
+"""
+from __future__ import annotations
+
+import argparse
+import asyncio
+import collections
+import json
+import logging
+import signal
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from .autopilot import Autopilot
+from .camera_component import CameraComponent
+from .links import Endpoint, LinkError, LinkHub, open_links, parse_endpoint
+from .params import ParamTable
+from .sim import Simulation
+from .telemetry import MODE_NAMES
+from .world import Scenario, ScenarioError, load_scenario, obstacles_at
+
+log = logging.getLogger("sitl_stub")
+
+EXIT_USAGE = 2
+INBOX_LIMIT = 10_000
+MAX_LAG_S = 0.5   # wall seconds behind schedule before the schedule is rebased (logged)
+
+
+class ShutdownRequested(Exception):
+    """Raised by the stop task when SIGTERM/SIGINT arrives."""
+
+
+@dataclass(frozen=True)
+class Options:
+    scenario: Scenario
+    tcp: Endpoint | None
+    udp: Endpoint | None
+    speedup: float
+    seed: int
+    truth_log: Path | None
+    drop_rate: float
+    sysid: int
+    signing_key: bytes | None
+    streams_off: bool
+
+
+class TruthLog:
+    """JSON lines of the true state; flushed at least once per wall-clock second and on close."""
+
+    def __init__(self, path: Path) -> None:
+        self._file = open(path, "w", encoding="utf-8")
+        self._last_flush = time.monotonic()
+
+    def write(self, t_s: float, sim: Simulation, ap: Autopilot) -> None:
+        truth, odom = sim.truth, sim.odometry
+        record = {
+            "t_s": round(t_s, 6), "north_m": truth.north_m, "east_m": truth.east_m,
+            "yaw_rad": truth.yaw_rad, "speed_mps": truth.speed_mps, "armed": ap.armed,
+            "mode": MODE_NAMES.get(ap.mode, str(ap.mode)),
+            "obstacles": [{"id": i, "north_m": n, "east_m": e, "radius_m": r}
+                          for i, n, e, r in obstacles_at(sim.scenario.world.obstacles, t_s)],
+            "odom_north_m": odom.north_m, "odom_east_m": odom.east_m, "odom_yaw_rad": odom.yaw_rad,
+        }
+        self._file.write(json.dumps(record) + "\n")
+        now = time.monotonic()
+        if now - self._last_flush >= 1.0:
+            self._file.flush()
+            self._last_flush = now
+
+    def close(self) -> None:
+        self._file.flush()
+        self._file.close()
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="sitl-stub", description=__doc__.split("\n\n")[0])
+    p.add_argument("--scenario", required=True, help="scenario YAML (config/scenarios/README.md)")
+    p.add_argument("--tcp", default="127.0.0.1:5760", help="TCP server HOST:PORT, or none")
+    p.add_argument("--udp", default="none", help="UDP endpoint HOST:PORT (udpin-like); default none")
+    p.add_argument("--speedup", type=float, default=1.0, help="simulated time / wall time")
+    p.add_argument("--seed", type=int, default=0, help="seed of every random stream")
+    p.add_argument("--truth-log", default=None, help="write the true state as JSON lines here")
+    p.add_argument("--drop-rate", type=float, default=0.0, help="drop probability per datagram/message")
+    p.add_argument("--sysid", type=int, default=None, help="MAVLink system id (SYSID_THISMAV), default 1")
+    p.add_argument("--signing-key", default=None, help="file with a 32-byte key as 64 hex chars")
+    p.add_argument("--streams-off", action="store_true",
+                   help="all SRn_* stream rates 0: no telemetry until a client asks")
+    p.add_argument("--log-level", default="INFO", help="stderr log level (default INFO)")
+    return p
+
+
+def parse_options(argv: list[str] | None) -> Options:
+    """Parse and check the command line. Raises ValueError/ScenarioError with clear messages."""
+    args = build_parser().parse_args(argv)
+    logging.basicConfig(stream=sys.stderr, level=args.log_level.upper(),
+                        format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+    if not (args.speedup > 0 and args.speedup < 1e6):
+        raise ValueError(f"--speedup must be > 0, got {args.speedup}")
+    if not 0.0 <= args.drop_rate <= 1.0:
+        raise ValueError(f"--drop-rate must be in [0, 1], got {args.drop_rate}")
+    sysid = 1 if args.sysid is None else args.sysid
+    if not 1 <= sysid <= 255:
+        raise ValueError(f"--sysid must be in 1..255, got {sysid}")
+    tcp = parse_endpoint(args.tcp, "tcp")
+    udp = parse_endpoint(args.udp, "udp")
+    if tcp is None and udp is None:
+        raise ValueError("both --tcp and --udp are disabled: nothing to serve")
+    key = _read_signing_key(args.signing_key) if args.signing_key else None
+    return Options(scenario=load_scenario(args.scenario), tcp=tcp, udp=udp, speedup=args.speedup,
+                   seed=args.seed, truth_log=Path(args.truth_log) if args.truth_log else None,
+                   drop_rate=args.drop_rate, sysid=sysid, signing_key=key,
+                   streams_off=args.streams_off)
+
+
+def _read_signing_key(path: str) -> bytes:
+    try:
+        text = Path(path).read_text(encoding="ascii").strip()
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ValueError(f"--signing-key {path}: cannot read: {exc}") from exc
+    if len(text) != 64:
+        raise ValueError(f"--signing-key {path}: expected 64 hex characters, got {len(text)}")
+    try:
+        return bytes.fromhex(text)
+    except ValueError:
+        raise ValueError(f"--signing-key {path}: not hexadecimal") from None
+
+
+async def simulate(opts: Options, sim: Simulation, ap: Autopilot, cam: CameraComponent,
+                   hub: LinkHub, inbox: collections.deque, truth_log: TruthLog | None) -> None:
+    """Step physics on simulated time, handle messages, emit telemetry. Runs until cancelled."""
+    loop = asyncio.get_running_loop()
+    dt_s = sim.dt_s
+    wall0 = loop.time()
+    base_step = 0
+    hub.broadcast(ap.periodic(sim.t_s) + cam.periodic(sim.t_s))
+    if truth_log is not None:
+        truth_log.write(sim.t_s, sim, ap)
+    while True:
+        due = wall0 + (sim.step_index + 1 - base_step) * dt_s / opts.speedup
+        delay = due - loop.time()
+        if delay < -MAX_LAG_S:
+            log.warning("falling behind wall clock by %.2f s; simulated time slows down", -delay)
+            wall0, base_step = loop.time(), sim.step_index
+            delay = 0.0
+        await asyncio.sleep(max(0.0, delay))
+        t_s = sim.t_s
+        while inbox:
+            _, msg = inbox.popleft()
+            hub.broadcast(ap.handle(msg, t_s))
+        sim.step(ap.demand(t_s), ap.armed)
+        t_s = sim.t_s
+        hub.broadcast(ap.after_step(t_s) + ap.periodic(t_s) + cam.periodic(t_s))
+        if truth_log is not None:
+            truth_log.write(t_s, sim, ap)
+
+
+async def raise_on(stop: asyncio.Event) -> None:
+    await stop.wait()
+    raise ShutdownRequested()
+
+
+async def run_stub(opts: Options) -> None:
+    sim = Simulation(opts.scenario, seed=opts.seed)
+    params = ParamTable(sysid=opts.sysid, streams_off=opts.streams_off)
+    ap = Autopilot(sim, params, start_unix_s=time.time())
+    cam = CameraComponent(sim)
+    inbox: collections.deque = collections.deque()
+    overflow = [0]
+
+    def on_message(name: str, msg) -> None:
+        if len(inbox) >= INBOX_LIMIT:
+            overflow[0] += 1
+            return
+        inbox.append((name, msg))
+
+    hub = LinkHub(opts.tcp, opts.udp, opts.sysid, on_message, drop_rate=opts.drop_rate,
+                  seed=opts.seed, signing_key=opts.signing_key)
+    stop = asyncio.Event()
+    loop = asyncio.get_running_loop()
+    for sig in (signal.SIGTERM, signal.SIGINT):
+        loop.add_signal_handler(sig, stop.set)
+    truth_log = TruthLog(opts.truth_log) if opts.truth_log else None
+    try:
+        async with open_links(hub):
+            tcp = "%s:%d" % hub.tcp_address if hub.tcp_address else "-"
+            udp = "%s:%d" % hub.udp_address if hub.udp_address else "-"
+            log.info("scenario %r (%s): dt %.3f s, speedup %g, seed %d, drop rate %g, sysid %d, "
+                     "signing %s, streams %s", opts.scenario.name, opts.scenario.path,
+                     sim.dt_s, opts.speedup, opts.seed, opts.drop_rate, opts.sysid,
+                     "on" if opts.signing_key else "off", "off" if opts.streams_off else "default")
+            print(f"SITL_STUB READY tcp={tcp} udp={udp}", flush=True)
+            try:
+                async with asyncio.TaskGroup() as tg:
+                    tg.create_task(simulate(opts, sim, ap, cam, hub, inbox, truth_log),
+                                   name="simulate")
+                    tg.create_task(raise_on(stop), name="stop")
+            except* ShutdownRequested:
+                log.info("clean shutdown at t=%.2f s (simulated)", sim.t_s)
+            log.info("link statistics: %s; inbox overflow %d", hub.statistics(), overflow[0])
+    finally:
+        if truth_log is not None:
+            truth_log.close()
+
+
+def main(argv: list[str] | None = None) -> int:
+    try:
+        opts = parse_options(argv)
+    except (ValueError, ScenarioError) as exc:
+        print(f"sitl-stub: error: {exc}", file=sys.stderr, flush=True)
+        return EXIT_USAGE
+    try:
+        asyncio.run(run_stub(opts))
+    except LinkError as exc:
+        print(f"sitl-stub: error: {exc}", file=sys.stderr, flush=True)
+        return EXIT_USAGE
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,105 @@
+"""The stereo camera: range and bearing to obstacle centres in the field of view, with noise R.
+
+Pure: takes the TRUE pose, the obstacles at capture time and a numpy Generator; returns
+detections. Body frame FRD (x forward, y right); bearing theta is relative to the heading,
+positive clockwise (to the right), wrapped to (-pi, pi].
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .world import UINT16_MAX, SensorConfig, wrap_pi
+
+MIN_DISTANCE_M = 0.2
+SECTOR_COUNT = 72
+
+
+@dataclass(frozen=True)
+class Detection:
+    """One reported obstacle: noisy range (m) and bearing (rad) to its centre, in body FRD."""
+    obstacle_id: int          # scenario id, or UINT16_MAX (ids off, or a false alarm)
+    range_m: float
+    bearing_rad: float
+    radius_m: float           # true radius, used only for the 72-sector form; NaN for false alarms
+    false_alarm: bool = False
+
+    @property
+    def x_m(self) -> float:
+        return self.range_m * math.cos(self.bearing_rad)
+
+    @property
+    def y_m(self) -> float:
+        return self.range_m * math.sin(self.bearing_rad)
+
+
+def true_range_bearing(north_m: float, east_m: float, yaw_rad: float,
+                       ob_north_m: float, ob_east_m: float) -> tuple[float, float]:
+    """Range (m) to a point and its bearing relative to the heading (rad, (-pi, pi])."""
+    dn = ob_north_m - north_m
+    de = ob_east_m - east_m
+    return math.hypot(dn, de), wrap_pi(math.atan2(de, dn) - yaw_rad)
+
+
+def in_view(range_m: float, bearing_rad: float, cfg: SensorConfig) -> bool:
+    return range_m <= cfg.max_range_m and abs(bearing_rad) <= cfg.fov_rad / 2.0
+
+
+def observe(north_m: float, east_m: float, yaw_rad: float,
+            obstacles: list[tuple[int, float, float, float]], cfg: SensorConfig,
+            rng: np.random.Generator) -> list[Detection]:
+    """One camera frame from the true pose.
+
+    obstacles: [(id, north_m, east_m, radius_m)] at capture time. Visible = true range to the
+    centre <= max_range_m and |true bearing| <= fov/2. Each visible obstacle is missed with
+    miss_probability; otherwise reported with range + N(0, range_sigma^2) and bearing +
+    N(0, bearing_sigma^2). False alarms: Poisson(false_alarm_rate_hz / rate_hz) per frame, at
+    positions uniform over the area of the field-of-view sector.
+    """
+    out: list[Detection] = []
+    for oid, on, oe, radius in obstacles:
+        r, theta = true_range_bearing(north_m, east_m, yaw_rad, on, oe)
+        if not in_view(r, theta, cfg):
+            continue
+        if cfg.miss_probability > 0.0 and rng.random() < cfg.miss_probability:
+            continue
+        r_meas = r + rng.normal(0.0, cfg.range_sigma_m) if cfg.range_sigma_m > 0 else r
+        th_meas = theta + rng.normal(0.0, cfg.bearing_sigma_rad) if cfg.bearing_sigma_rad > 0 else theta
+        out.append(Detection(obstacle_id=oid if cfg.report_ids else UINT16_MAX,
+                             range_m=max(0.0, r_meas), bearing_rad=wrap_pi(th_meas),
+                             radius_m=radius))
+    if cfg.false_alarm_rate_hz > 0.0:
+        count = int(rng.poisson(cfg.false_alarm_rate_hz / cfg.rate_hz))
+        half = min(cfg.fov_rad / 2.0, math.pi)
+        for _ in range(count):
+            r = max(MIN_DISTANCE_M, cfg.max_range_m * math.sqrt(rng.random()))
+            theta = rng.uniform(-half, half)
+            out.append(Detection(obstacle_id=UINT16_MAX, range_m=r, bearing_rad=theta,
+                                 radius_m=float("nan"), false_alarm=True))
+    return out
+
+
+def sector_distances_cm(detections: list[Detection], cfg: SensorConfig) -> tuple[list[int], float, float]:
+    """The 72-sector OBSTACLE_DISTANCE form of one frame.
+
+    Sectors of width fov/72 from -fov/2 (clockwise). Each holds the distance (cm) to the
+    nearest obstacle surface (range to centre minus radius) over the obstacle's angular extent;
+    max_distance + 1 where nothing is seen (the message's "no obstacle" value).
+    Returns (distances_cm, increment_deg, angle_offset_deg).
+    """
+    increment_rad = cfg.fov_rad / SECTOR_COUNT
+    max_cm = int(round(cfg.max_range_m * 100))
+    none_cm = min(max_cm + 1, UINT16_MAX - 1)
+    dist = [none_cm] * SECTOR_COUNT
+    start = -cfg.fov_rad / 2.0
+    for det in detections:
+        radius = 0.0 if math.isnan(det.radius_m) else det.radius_m
+        surface_m = max(MIN_DISTANCE_M, det.range_m - radius)
+        half_width = math.asin(min(1.0, radius / det.range_m)) if det.range_m > 0 else math.pi
+        lo = int(math.floor((det.bearing_rad - half_width - start) / increment_rad))
+        hi = int(math.floor((det.bearing_rad + half_width - start) / increment_rad))
+        for i in range(max(0, lo), min(SECTOR_COUNT - 1, hi) + 1):
+            dist[i] = min(dist[i], int(round(surface_m * 100)))
+    return dist, math.degrees(increment_rad), math.degrees(start)

@@ -1,0 +1,47 @@
+"""Component 100, the stereo camera: its heartbeat and its unasked obstacle reports."""
+from __future__ import annotations
+
+from . import telemetry as tm
+from .camera import Detection
+from .sim import Simulation
+
+HEARTBEAT_INTERVAL_S = 1.0
+
+
+class CameraComponent:
+    """Publishes OBSTACLE_DISTANCE_3D (and optionally OBSTACLE_DISTANCE) at sensor.rate_hz.
+
+    Frames are captured on physics steps: the first step at or after each nominal frame time.
+    All reports of one frame share that step's time_boot_ms. Reporting does not depend on
+    arming or mode.
+    """
+
+    def __init__(self, sim: Simulation) -> None:
+        self.sim = sim
+        self.cfg = sim.scenario.sensor
+        self._frame_interval_s = 1.0 / self.cfg.rate_hz
+        self._next_frame_s = 0.0
+        self._next_heartbeat_s = 0.0
+        self.frames = 0
+        self.last_frame: list[Detection] = []
+
+    def periodic(self, t_s: float) -> list[tuple[int, object]]:
+        out: list[tuple[int, object]] = []
+        if t_s + 1e-9 >= self._next_heartbeat_s:
+            out.append((tm.COMP_CAMERA, tm.heartbeat_camera()))
+            self._next_heartbeat_s = _advance(self._next_heartbeat_s, HEARTBEAT_INTERVAL_S, t_s)
+        if t_s + 1e-9 >= self._next_frame_s:
+            detections = self.sim.observe()
+            self.frames += 1
+            self.last_frame = detections
+            for det in detections:
+                out.append((tm.COMP_CAMERA, tm.obstacle_distance_3d(det, t_s, self.cfg)))
+            if self.cfg.sector_message:
+                out.append((tm.COMP_CAMERA, tm.obstacle_distance(detections, t_s, self.cfg)))
+            self._next_frame_s = _advance(self._next_frame_s, self._frame_interval_s, t_s)
+        return out
+
+
+def _advance(next_s: float, interval_s: float, t_s: float) -> float:
+    next_s += interval_s
+    return next_s if next_s > t_s else t_s + interval_s

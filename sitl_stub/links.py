@@ -1,0 +1,292 @@
+"""The stub's MAVLink 2 links: a TCP server (several clients) and a UDP endpoint (udpin-like).
+
+Every message the stub emits goes to every client. Each client has its own parser and one
+pymavlink encoder per component (1 and 100), so each component has its own sequence numbers
+on each link, as ArduPilot keeps them per channel. Garbage from a client is counted and
+dropped. With drop_rate P, each incoming/outgoing UDP datagram and each incoming/outgoing TCP
+message is dropped with probability P, from its own seeded random stream.
+"""
+from __future__ import annotations
+
+import asyncio
+import logging
+import time
+from contextlib import asynccontextmanager
+from dataclasses import dataclass
+from typing import AsyncIterator, Callable
+
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+from .sim import STREAM_LINK_DROP, make_rng
+
+log = logging.getLogger(__name__)
+
+COMPONENTS = (mavlink.MAV_COMP_ID_AUTOPILOT1, mavlink.MAV_COMP_ID_CAMERA)
+MAX_TCP_BACKLOG_BYTES = 1 << 20   # a client that does not read loses messages beyond this
+# Unsigned messages accepted when signing is on (ArduPilot also lets RADIO_STATUS through).
+UNSIGNED_ALLOWED = (mavlink.MAVLINK_MSG_ID_HEARTBEAT, mavlink.MAVLINK_MSG_ID_RADIO_STATUS)
+_SIGNING_EPOCH_UNIX_S = 1420070400   # MAVLink signing timestamps count 10 us from 2015-01-01
+
+
+class LinkError(Exception):
+    """A link could not be opened (port in use, bad address)."""
+
+
+@dataclass(frozen=True)
+class LinkStatistics:
+    tcp_clients: int
+    udp_clients: int
+    received: int
+    sent: int
+    dropped_in: int
+    dropped_out: int
+    bad_data: int
+    bad_bytes: int
+    unsigned_rejected: int
+    backlog_dropped: int
+
+
+@dataclass(frozen=True)
+class Endpoint:
+    host: str
+    port: int
+
+
+def parse_endpoint(text: str, what: str) -> Endpoint | None:
+    """'HOST:PORT' -> Endpoint; 'none' -> None. Raises ValueError with a clear message."""
+    if text.strip().lower() in ("none", "-", ""):
+        return None
+    host, sep, port = text.rpartition(":")
+    if not sep or not host:
+        raise ValueError(f"--{what}: expected HOST:PORT or none, got {text!r}")
+    try:
+        port_i = int(port)
+    except ValueError:
+        raise ValueError(f"--{what}: port must be an integer, got {port!r}") from None
+    if not 0 <= port_i <= 65535:
+        raise ValueError(f"--{what}: port must be in 0..65535, got {port_i}")
+    return Endpoint(host=host, port=port_i)
+
+
+class _Sink:
+    """File-like object that keeps the bytes pymavlink's MAVLink.send() writes."""
+
+    def __init__(self) -> None:
+        self.data = b""
+
+    def write(self, data: bytes) -> None:
+        self.data = bytes(data)
+
+
+class _Client:
+    def __init__(self, name: str, sysid: int, signing_key: bytes | None, link_id: int) -> None:
+        self.name = name
+        self.parser = mavlink.MAVLink(None)
+        self.parser.robust_parsing = True
+        self._sink = _Sink()
+        self.encoders = {comp: mavlink.MAVLink(self._sink, sysid, comp) for comp in COMPONENTS}
+        if signing_key is not None:
+            stamp = int(max(0.0, time.time() - _SIGNING_EPOCH_UNIX_S) * 100_000)
+            for enc in self.encoders.values():
+                enc.signing.secret_key = signing_key
+                enc.signing.sign_outgoing = True
+                enc.signing.link_id = link_id
+                enc.signing.timestamp = stamp
+            self.parser.signing.secret_key = signing_key
+            self.parser.signing.timestamp = stamp
+            self.parser.signing.allow_unsigned_callback = (
+                lambda _mav, msg_id: msg_id in UNSIGNED_ALLOWED)
+
+    def encode(self, comp: int, msg) -> bytes:
+        self.encoders[comp].send(msg)   # advances this component's sequence number
+        return self._sink.data
+
+
+class LinkHub:
+    """Owns both endpoints and their clients; decoded messages go to `on_message(name, msg)`."""
+
+    def __init__(self, tcp: Endpoint | None, udp: Endpoint | None, sysid: int,
+                 on_message: Callable[[str, object], None], drop_rate: float = 0.0, seed: int = 0,
+                 signing_key: bytes | None = None) -> None:
+        self._tcp_ep, self._udp_ep = tcp, udp
+        self._sysid = sysid
+        self._on_message = on_message
+        self._drop_rate = drop_rate
+        self._rng = make_rng(seed, STREAM_LINK_DROP)
+        self._signing_key = signing_key
+        self._server: asyncio.base_events.Server | None = None
+        self._udp_transport: asyncio.DatagramTransport | None = None
+        self._tcp_clients: dict[str, tuple[_Client, asyncio.StreamWriter]] = {}
+        self._udp_clients: dict[tuple, _Client] = {}
+        self._handlers: set[asyncio.Task] = set()
+        self._next_link_id = 0
+        self.tcp_address: tuple[str, int] | None = None
+        self.udp_address: tuple[str, int] | None = None
+        self._n = dict(received=0, sent=0, dropped_in=0, dropped_out=0, bad_data=0, bad_bytes=0,
+                       unsigned_rejected=0, backlog_dropped=0)
+        self._last_bad_warning_s = 0.0
+
+    # ------------------------------------------------------------------ lifecycle
+    async def start(self) -> None:
+        loop = asyncio.get_running_loop()
+        if self._tcp_ep is not None:
+            try:
+                self._server = await asyncio.start_server(self._serve_tcp, self._tcp_ep.host,
+                                                          self._tcp_ep.port)
+            except OSError as exc:
+                raise LinkError(f"cannot listen on TCP {self._tcp_ep.host}:{self._tcp_ep.port}: "
+                                f"{exc.strerror or exc}") from exc
+            self.tcp_address = self._server.sockets[0].getsockname()[:2]
+        if self._udp_ep is not None:
+            try:
+                self._udp_transport, _ = await loop.create_datagram_endpoint(
+                    lambda: _UdpProtocol(self), local_addr=(self._udp_ep.host, self._udp_ep.port))
+            except OSError as exc:
+                raise LinkError(f"cannot bind UDP {self._udp_ep.host}:{self._udp_ep.port}: "
+                                f"{exc.strerror or exc}") from exc
+            self.udp_address = self._udp_transport.get_extra_info("sockname")[:2]
+
+    async def close(self) -> None:
+        if self._server is not None:
+            self._server.close()
+        for _, writer in list(self._tcp_clients.values()):
+            writer.close()
+        for task in list(self._handlers):
+            task.cancel()
+        if self._handlers:
+            await asyncio.gather(*self._handlers, return_exceptions=True)
+        if self._server is not None:
+            await self._server.wait_closed()
+        if self._udp_transport is not None:
+            self._udp_transport.close()
+
+    def statistics(self) -> LinkStatistics:
+        return LinkStatistics(tcp_clients=len(self._tcp_clients),
+                              udp_clients=len(self._udp_clients), **self._n)
+
+    # ------------------------------------------------------------------ sending
+    def broadcast(self, items: list[tuple[int, object]]) -> None:
+        """Send each (component, message) to every client."""
+        if not items:
+            return
+        for name, (client, writer) in list(self._tcp_clients.items()):
+            if writer.is_closing():
+                continue
+            chunks = []
+            for comp, msg in items:
+                data = client.encode(comp, msg)
+                if self._drop():
+                    self._n["dropped_out"] += 1
+                    continue
+                chunks.append(data)
+            if not chunks:
+                continue
+            if writer.transport.get_write_buffer_size() > MAX_TCP_BACKLOG_BYTES:
+                self._n["backlog_dropped"] += len(chunks)
+                continue
+            writer.write(b"".join(chunks))
+            self._n["sent"] += len(chunks)
+        if self._udp_transport is not None:
+            for addr, client in list(self._udp_clients.items()):
+                for comp, msg in items:
+                    data = client.encode(comp, msg)
+                    if self._drop():
+                        self._n["dropped_out"] += 1
+                        continue
+                    self._udp_transport.sendto(data, addr)
+                    self._n["sent"] += 1
+
+    # ------------------------------------------------------------------ receiving
+    def _drop(self) -> bool:
+        return self._drop_rate > 0.0 and self._rng.random() < self._drop_rate
+
+    def _new_client(self, name: str) -> _Client:
+        self._next_link_id = (self._next_link_id + 1) % 256
+        log.info("client connected: %s", name)
+        return _Client(name, self._sysid, self._signing_key, self._next_link_id)
+
+    def _feed(self, client: _Client, data: bytes, per_message_drop: bool) -> None:
+        try:
+            msgs = client.parser.parse_buffer(data) or []
+        except Exception as exc:   # their fault: a parser error must never stop the stub
+            self._count_bad(client, len(data), f"parser error: {exc}")
+            return
+        for msg in msgs:
+            if msg.get_type() == "BAD_DATA":
+                reason = str(getattr(msg, "reason", ""))
+                if "signature" in reason.lower():
+                    self._n["unsigned_rejected"] += 1
+                    log.debug("unsigned/badly signed message from %s refused", client.name)
+                else:
+                    self._count_bad(client, len(getattr(msg, "data", b"")), reason)
+                continue
+            if msg.get_type() == "UNKNOWN" or msg.get_type().startswith("UNKNOWN"):
+                continue
+            if per_message_drop and self._drop():
+                self._n["dropped_in"] += 1
+                continue
+            self._n["received"] += 1
+            self._on_message(client.name, msg)
+
+    def _count_bad(self, client: _Client, nbytes: int, reason: str) -> None:
+        self._n["bad_data"] += 1
+        self._n["bad_bytes"] += nbytes
+        now = time.monotonic()
+        if now - self._last_bad_warning_s > 1.0:   # rate-limited
+            self._last_bad_warning_s = now
+            log.warning("garbage from %s dropped (%s); %d bad chunks so far", client.name,
+                        reason, self._n["bad_data"])
+
+    async def _serve_tcp(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+        task = asyncio.current_task()
+        if task is not None:
+            self._handlers.add(task)
+        peer = writer.get_extra_info("peername")
+        name = f"tcp:{peer[0]}:{peer[1]}" if peer else "tcp:?"
+        client = self._new_client(name)
+        self._tcp_clients[name] = (client, writer)
+        try:
+            while True:
+                data = await reader.read(4096)
+                if not data:
+                    break
+                self._feed(client, data, per_message_drop=True)
+        except (ConnectionError, OSError) as exc:
+            log.info("client %s: %s", name, exc)
+        finally:
+            self._tcp_clients.pop(name, None)
+            writer.close()
+            log.info("client disconnected: %s", name)
+            if task is not None:
+                self._handlers.discard(task)
+
+    def _on_datagram(self, data: bytes, addr: tuple) -> None:
+        if self._drop():
+            self._n["dropped_in"] += 1
+            return
+        client = self._udp_clients.get(addr)
+        if client is None:
+            client = self._new_client(f"udp:{addr[0]}:{addr[1]}")
+            self._udp_clients[addr] = client
+        self._feed(client, data, per_message_drop=False)
+
+
+class _UdpProtocol(asyncio.DatagramProtocol):
+    def __init__(self, hub: LinkHub) -> None:
+        self._hub = hub
+
+    def datagram_received(self, data: bytes, addr: tuple) -> None:
+        self._hub._on_datagram(data, addr)
+
+    def error_received(self, exc: Exception) -> None:
+        log.debug("UDP error: %s", exc)
+
+
+@asynccontextmanager
+async def open_links(hub: LinkHub) -> AsyncIterator[LinkHub]:
+    """Start the hub's endpoints; close them (and every client) on exit."""
+    try:
+        await hub.start()
+        yield hub
+    finally:
+        await hub.close()

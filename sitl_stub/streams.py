@@ -1,0 +1,121 @@
+"""Telemetry stream scheduling on simulated time, as ArduPilot does it.
+
+Each emitted message belongs to an ArduPilot stream whose rate is the SR0_<stream> parameter
+(one global set for all links, see docs). MAV_CMD_SET_MESSAGE_INTERVAL overrides one message;
+REQUEST_DATA_STREAM sets a whole stream's rate and clears the overrides of its messages.
+Messages are emitted on physics steps, so the highest effective rate is 1 / vehicle.dt_s.
+"""
+from __future__ import annotations
+
+from .params import ParamTable
+
+MSG_HEARTBEAT = 0
+MSG_SYS_STATUS = 1
+MSG_SYSTEM_TIME = 2
+MSG_ATTITUDE = 30
+MSG_LOCAL_POSITION_NED = 32
+MSG_GLOBAL_POSITION_INT = 33
+MSG_POSITION_TARGET_LOCAL_NED = 85
+MSG_SIMSTATE = 164
+MSG_HOME_POSITION = 242
+
+# MAV_DATA_STREAM ids (REQUEST_DATA_STREAM) -> SRn_ parameter suffix.
+DATA_STREAM_SUFFIX = {1: "RAW_SENS", 2: "EXT_STAT", 3: "RC_CHAN", 4: "RAW_CTRL", 6: "POSITION",
+                      10: "EXTRA1", 11: "EXTRA2", 12: "EXTRA3"}
+MAV_DATA_STREAM_ALL = 0
+
+# Which stream each message rides on (as in ArduPilot's GCS_MAVLink_Parameters.cpp, except
+# POSITION_TARGET_LOCAL_NED, which the stub sends with the position stream while in GUIDED).
+STREAM_OF_MESSAGE = {
+    MSG_SYS_STATUS: "EXT_STAT",
+    MSG_GLOBAL_POSITION_INT: "POSITION",
+    MSG_LOCAL_POSITION_NED: "POSITION",
+    MSG_POSITION_TARGET_LOCAL_NED: "POSITION",
+    MSG_ATTITUDE: "EXTRA1",
+    MSG_SIMSTATE: "EXTRA1",
+    MSG_SYSTEM_TIME: "EXTRA3",
+}
+HEARTBEAT_INTERVAL_S = 1.0
+# Messages that can be streamed at all (SET_MESSAGE_INTERVAL on anything else is refused).
+STREAMABLE = (MSG_HEARTBEAT, *STREAM_OF_MESSAGE, MSG_HOME_POSITION)
+
+_DISABLED = -1.0
+
+
+class StreamScheduler:
+    """Decides which periodic messages are due at a simulated time."""
+
+    def __init__(self, params: ParamTable) -> None:
+        self._params = params
+        self._override_s: dict[int, float] = {}   # msg id -> interval s, or _DISABLED
+        self._next_due_s: dict[int, float] = {}
+
+    def interval_s(self, msg_id: int) -> float | None:
+        """Current interval of a message in seconds, or None if it is not being sent."""
+        if msg_id in self._override_s:
+            value = self._override_s[msg_id]
+            return None if value == _DISABLED else value
+        return self.default_interval_s(msg_id)
+
+    def default_interval_s(self, msg_id: int) -> float | None:
+        if msg_id == MSG_HEARTBEAT:
+            return HEARTBEAT_INTERVAL_S
+        suffix = STREAM_OF_MESSAGE.get(msg_id)
+        if suffix is None:
+            return None
+        rate_hz = self._params.stream_rate_hz(suffix)
+        return 1.0 / rate_hz if rate_hz > 0 else None
+
+    def set_message_interval(self, msg_id: int, interval_us: float) -> bool:
+        """MAV_CMD_SET_MESSAGE_INTERVAL: -1 disables, 0 restores the default, > 0 sets it.
+        Returns False for a message the stub cannot stream or a meaningless interval."""
+        if msg_id not in STREAMABLE:
+            return False
+        if interval_us == -1:
+            self._override_s[msg_id] = _DISABLED
+        elif interval_us == 0:
+            self._override_s.pop(msg_id, None)
+        elif interval_us > 0:
+            self._override_s[msg_id] = interval_us / 1e6
+        else:
+            return False
+        self._next_due_s.pop(msg_id, None)
+        return True
+
+    def request_data_stream(self, stream_id: int, rate_hz: int, start: bool) -> bool:
+        """REQUEST_DATA_STREAM: set the stream's SR0_ rate (all streams for MAV_DATA_STREAM_ALL)."""
+        if stream_id == MAV_DATA_STREAM_ALL:
+            suffixes = list(DATA_STREAM_SUFFIX.values())
+        elif stream_id in DATA_STREAM_SUFFIX:
+            suffixes = [DATA_STREAM_SUFFIX[stream_id]]
+        else:
+            return False
+        rate = float(rate_hz) if start else 0.0
+        for suffix in suffixes:
+            self._params.set(f"SR0_{suffix}", rate)
+            for msg_id, msg_suffix in STREAM_OF_MESSAGE.items():
+                if msg_suffix == suffix:
+                    self._override_s.pop(msg_id, None)
+                    self._next_due_s.pop(msg_id, None)
+        return True
+
+    def rates_changed(self) -> None:
+        """Call after an SRn_ parameter changed, so new rates take effect at once."""
+        self._next_due_s.clear()
+
+    def due(self, t_s: float) -> list[int]:
+        """Message ids due at simulated time t_s; advances their next-due times."""
+        out = []
+        for msg_id in STREAMABLE:
+            interval = self.interval_s(msg_id)
+            if interval is None:
+                self._next_due_s.pop(msg_id, None)
+                continue
+            next_due = self._next_due_s.get(msg_id, t_s)
+            if t_s + 1e-9 >= next_due:
+                out.append(msg_id)
+                next_due += interval
+                if next_due <= t_s:
+                    next_due = t_s + interval
+                self._next_due_s[msg_id] = next_due
+        return out

@@ -1,0 +1,315 @@
+"""Scenario loading and validation, and the obstacles of the world.
+
+`load_scenario(path)` is the only place that turns a scenario YAML file into config objects.
+Frame: LOCAL_NED, x (north_m) and y (east_m) in metres from `world.origin`, yaw clockwise from
+north. Degrees appear only in YAML keys ending in `_deg`; inside the stub everything is radians.
+
+Sections the stub does not use (`avoidance`, `estimator`) are accepted and ignored; any other
+unknown key is rejected, because it is usually a typo.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+EARTH_RADIUS_M = 6378137.0  # WGS-84 equatorial radius, as ArduPilot's flat-earth conversion uses
+UINT16_MAX = 65535
+
+
+class ScenarioError(ValueError):
+    """A scenario file could not be read or is invalid. The message names file, key and problem."""
+
+
+@dataclass(frozen=True)
+class Origin:
+    lat_deg: float
+    lon_deg: float
+    alt_m: float
+
+    def to_lat_lon_deg(self, north_m: float, east_m: float) -> tuple[float, float]:
+        """Flat-earth conversion of a LOCAL_NED offset to latitude/longitude in degrees."""
+        lat_deg = self.lat_deg + math.degrees(north_m / EARTH_RADIUS_M)
+        lon_deg = self.lon_deg + math.degrees(
+            east_m / (EARTH_RADIUS_M * math.cos(math.radians(self.lat_deg))))
+        return lat_deg, lon_deg
+
+
+@dataclass(frozen=True)
+class Pose:
+    north_m: float
+    east_m: float
+    yaw_rad: float
+
+
+@dataclass(frozen=True)
+class Goal:
+    north_m: float
+    east_m: float
+    radius_m: float
+
+
+@dataclass(frozen=True)
+class Obstacle:
+    """A circular obstacle; it moves with a constant velocity (zero for a static one)."""
+    obstacle_id: int
+    north_m: float
+    east_m: float
+    radius_m: float
+    vel_north_mps: float = 0.0
+    vel_east_mps: float = 0.0
+
+    def position_at(self, t_s: float) -> tuple[float, float]:
+        """(north_m, east_m) of the centre at simulated time t_s since start."""
+        return (self.north_m + self.vel_north_mps * t_s, self.east_m + self.vel_east_mps * t_s)
+
+
+@dataclass(frozen=True)
+class WorldConfig:
+    origin: Origin
+    start: Pose
+    goal: Goal
+    obstacles: tuple[Obstacle, ...]
+
+
+@dataclass(frozen=True)
+class VehicleConfig:
+    speed_mps: float
+    max_turn_rate_rad_s: float
+    max_accel_mps2: float
+    dt_s: float
+
+
+@dataclass(frozen=True)
+class NoiseConfig:
+    """Q: odometry noise, one sample of each per physics step."""
+    speed_sigma_mps: float
+    heading_change_sigma_rad: float
+
+
+@dataclass(frozen=True)
+class SensorConfig:
+    fov_rad: float
+    max_range_m: float
+    rate_hz: float
+    range_sigma_m: float
+    bearing_sigma_rad: float
+    report_ids: bool
+    miss_probability: float
+    false_alarm_rate_hz: float
+    sector_message: bool = False
+
+
+@dataclass(frozen=True)
+class MissionConfig:
+    max_time_s: float
+
+
+@dataclass(frozen=True)
+class Scenario:
+    name: str
+    world: WorldConfig
+    vehicle: VehicleConfig
+    noise: NoiseConfig
+    sensor: SensorConfig
+    mission: MissionConfig | None
+    path: str = ""
+
+
+_TOP_KEYS = {"name", "world", "vehicle", "noise", "sensor", "mission"}
+_IGNORED_TOP_KEYS = {"avoidance", "estimator"}  # the companion's sections; it validates them
+
+
+class _Reader:
+    """Typed access to one YAML mapping; every error names file and key path."""
+
+    def __init__(self, path: str, data: Any, key_path: str) -> None:
+        self.path = path
+        self.key_path = key_path
+        if not isinstance(data, dict):
+            raise self.error(f"expected a mapping, got {_show(data)}")
+        self.data = data
+        self.used: set[str] = set()
+
+    def error(self, problem: str, key: str | None = None) -> ScenarioError:
+        full = f"{self.key_path}.{key}" if (key and self.key_path) else (key or self.key_path)
+        return ScenarioError(f"{self.path}: {full or '<top>'}: {problem}")
+
+    def _get(self, key: str, default: Any) -> Any:
+        self.used.add(key)
+        if key not in self.data:
+            if default is _REQUIRED:
+                raise self.error("missing required key", key)
+            return default
+        return self.data[key]
+
+    def number(self, key: str, default: Any = None, *, minimum: float | None = None,
+               strict_min: bool = False, maximum: float | None = None) -> float:
+        value = self._get(key, _REQUIRED if default is None else default)
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise self.error(f"expected a number, got {_show(value)}", key)
+        value = float(value)
+        if not math.isfinite(value):
+            raise self.error(f"expected a finite number, got {value}", key)
+        if minimum is not None and (value <= minimum if strict_min else value < minimum):
+            raise self.error(f"must be {'>' if strict_min else '>='} {minimum:g}, got {value:g}", key)
+        if maximum is not None and value > maximum:
+            raise self.error(f"must be <= {maximum:g}, got {value:g}", key)
+        return value
+
+    def integer(self, key: str, *, minimum: int, maximum: int) -> int:
+        value = self._get(key, _REQUIRED)
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise self.error(f"expected an integer, got {_show(value)}", key)
+        if not minimum <= value <= maximum:
+            raise self.error(f"must be in [{minimum}, {maximum}], got {value}", key)
+        return value
+
+    def boolean(self, key: str, default: Any = None) -> bool:
+        value = self._get(key, _REQUIRED if default is None else default)
+        if not isinstance(value, bool):
+            raise self.error(f"expected true or false, got {_show(value)}", key)
+        return value
+
+    def child(self, key: str, required: bool = True) -> "_Reader | None":
+        value = self._get(key, _REQUIRED if required else None)
+        if value is None and not required:
+            return None
+        return _Reader(self.path, value, f"{self.key_path}.{key}" if self.key_path else key)
+
+    def finish(self, ignored: set[str] = frozenset()) -> None:
+        unknown = sorted(set(map(str, self.data)) - self.used - set(ignored))
+        if unknown:
+            raise self.error("unknown key (typo?)", unknown[0])
+
+
+_REQUIRED = object()
+
+
+def _show(value: Any) -> str:
+    return repr(value) if not isinstance(value, (dict, list)) else type(value).__name__
+
+
+def load_scenario(path: str | Path) -> Scenario:
+    """Read and validate a scenario file. Raises ScenarioError naming file, key and problem."""
+    path_s = str(path)
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except OSError as exc:
+        raise ScenarioError(f"{path_s}: cannot read: {exc.strerror or exc}") from exc
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        raise ScenarioError(f"{path_s}: not valid YAML: {exc}") from exc
+    return parse_scenario(data, path_s)
+
+
+def parse_scenario(data: Any, path: str = "<scenario>") -> Scenario:
+    """Build a Scenario from already-parsed YAML data (see load_scenario)."""
+    top = _Reader(path, data, "")
+    name = top._get("name", "")
+    if not isinstance(name, str):
+        raise top.error(f"expected a string, got {_show(name)}", "name")
+    world = _parse_world(top.child("world"))
+    vehicle = _parse_vehicle(top.child("vehicle"))
+    noise = _parse_noise(top.child("noise"))
+    sensor = _parse_sensor(top.child("sensor"))
+    mission_r = top.child("mission", required=False)
+    mission = None
+    if mission_r is not None:
+        mission = MissionConfig(max_time_s=mission_r.number("max_time_s", minimum=0, strict_min=True))
+        mission_r.finish()
+    top.finish(ignored=_IGNORED_TOP_KEYS)
+    return Scenario(name=name, world=world, vehicle=vehicle, noise=noise, sensor=sensor,
+                    mission=mission, path=path)
+
+
+def _parse_world(r: _Reader) -> WorldConfig:
+    o = r.child("origin")
+    origin = Origin(lat_deg=o.number("lat_deg", minimum=-90, maximum=90),
+                    lon_deg=o.number("lon_deg", minimum=-180, maximum=180),
+                    alt_m=o.number("alt_m"))
+    o.finish()
+    s = r.child("start")
+    start = Pose(north_m=s.number("north_m"), east_m=s.number("east_m"),
+                 yaw_rad=wrap_pi(math.radians(s.number("yaw_deg"))))
+    s.finish()
+    g = r.child("goal")
+    goal = Goal(north_m=g.number("north_m"), east_m=g.number("east_m"),
+                radius_m=g.number("radius_m", minimum=0, strict_min=True))
+    g.finish()
+    raw_obstacles = r._get("obstacles", [])
+    if raw_obstacles is None:
+        raw_obstacles = []
+    if not isinstance(raw_obstacles, list):
+        raise r.error(f"expected a list, got {_show(raw_obstacles)}", "obstacles")
+    obstacles = []
+    seen: set[int] = set()
+    for i, item in enumerate(raw_obstacles):
+        ob = _Reader(r.path, item, f"world.obstacles[{i}]")
+        oid = ob.integer("id", minimum=0, maximum=UINT16_MAX - 1)
+        if oid in seen:
+            raise ob.error(f"duplicate obstacle id {oid}", "id")
+        seen.add(oid)
+        obstacles.append(Obstacle(
+            obstacle_id=oid, north_m=ob.number("north_m"), east_m=ob.number("east_m"),
+            radius_m=ob.number("radius_m", minimum=0, strict_min=True),
+            vel_north_mps=ob.number("vel_north_mps", 0.0),
+            vel_east_mps=ob.number("vel_east_mps", 0.0)))
+        ob.finish()
+    r.finish()
+    return WorldConfig(origin=origin, start=start, goal=goal, obstacles=tuple(obstacles))
+
+
+def _parse_vehicle(r: _Reader) -> VehicleConfig:
+    cfg = VehicleConfig(
+        speed_mps=r.number("speed_mps", minimum=0, strict_min=True),
+        max_turn_rate_rad_s=math.radians(r.number("max_turn_rate_deg_s", minimum=0, strict_min=True)),
+        max_accel_mps2=r.number("max_accel_mps2", minimum=0, strict_min=True),
+        dt_s=r.number("dt_s", minimum=0, strict_min=True, maximum=1.0))
+    r.finish()
+    return cfg
+
+
+def _parse_noise(r: _Reader) -> NoiseConfig:
+    cfg = NoiseConfig(
+        speed_sigma_mps=r.number("speed_sigma_mps", minimum=0),
+        heading_change_sigma_rad=math.radians(r.number("heading_change_sigma_deg", minimum=0)))
+    r.finish()
+    return cfg
+
+
+def _parse_sensor(r: _Reader) -> SensorConfig:
+    cfg = SensorConfig(
+        fov_rad=math.radians(r.number("fov_deg", minimum=0, strict_min=True, maximum=360)),
+        max_range_m=r.number("max_range_m", minimum=0.2, strict_min=True),
+        rate_hz=r.number("rate_hz", minimum=0, strict_min=True),
+        range_sigma_m=r.number("range_sigma_m", minimum=0),
+        bearing_sigma_rad=math.radians(r.number("bearing_sigma_deg", minimum=0)),
+        report_ids=r.boolean("report_ids"),
+        miss_probability=r.number("miss_probability", 0.0, minimum=0, maximum=1),
+        false_alarm_rate_hz=r.number("false_alarm_rate_hz", 0.0, minimum=0),
+        sector_message=r.boolean("sector_message", False))
+    r.finish()
+    return cfg
+
+
+def wrap_pi(angle_rad: float) -> float:
+    """Wrap an angle to (-pi, pi]."""
+    wrapped = math.fmod(angle_rad + math.pi, 2.0 * math.pi)
+    if wrapped <= 0.0:
+        wrapped += 2.0 * math.pi
+    return wrapped - math.pi
+
+
+def obstacles_at(obstacles: tuple[Obstacle, ...] | list[Obstacle],
+                 t_s: float) -> list[tuple[int, float, float, float]]:
+    """[(id, north_m, east_m, radius_m)] of every obstacle at simulated time t_s."""
+    out = []
+    for ob in obstacles:
+        n, e = ob.position_at(t_s)
+        out.append((ob.obstacle_id, n, e, ob.radius_m))
+    return out
