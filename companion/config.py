@@ -167,7 +167,7 @@ class AvoidanceConfig:
     inflation_sigmas: float = 0.0
     approach_decel_mps2: float = 1.0
     apf_attraction_gain: float = 1.0
-    apf_repulsion_gain: float = 8.0e4
+    apf_repulsion_gain: float = 3e5
     apf_influence_m: float = 20.0
 
     def __post_init__(self) -> None:

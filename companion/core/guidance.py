@@ -32,7 +32,7 @@ class GuidanceParams:
     inflation_sigmas: float = 0.0        # d += k * sigma of the relative position (0: paper)
     approach_decel_mps2: float = 1.0     # speed = min(cruise, sqrt(2 a dist)) near the goal
     apf_attraction_gain: float = 1.0     # Khatib's k, 1/s
-    apf_repulsion_gain: float = 8.0e4    # Khatib's eta, m^3/s
+    apf_repulsion_gain: float = 3.0e5    # Khatib's eta, m^3/s: holds ~d on the paper world
     apf_influence_m: float = 20.0        # Khatib's rho_0
 
 

@@ -1,0 +1,59 @@
+"""companion simulate: the paper's scenario reproduced in-process, through the real CLI entry."""
+import json
+
+import pytest
+
+from companion.__main__ import main
+
+RUN_FIELDS = {"seed", "reached_goal", "time_s", "min_clearance_m", "collided", "final_goal_distance_m",
+              "final_position_error_m", "max_position_error_m", "landmark_errors_m", "urgent_events",
+              "path_length_m"}
+
+
+def simulate(tmp_path, *args):
+    out = tmp_path / "out.json"
+    assert main(["simulate", *args, "--json", str(out)]) == 0
+    return json.loads(out.read_text())
+
+
+def test_paper_scenario_meets_the_acceptance_figures(tmp_path):
+    report = simulate(tmp_path, "--scenario", "config/scenarios/paper.yaml", "--runs", "20",
+                      "--plot", str(tmp_path / "fig.png"))
+    agg = report["aggregate"]
+    assert agg["runs"] == 20 and len(report["runs"]) == 20
+    assert agg["success_rate"] == 1.0
+    assert agg["min_clearance_m"]["min"] >= 9.5
+    assert agg["final_position_error_m"]["p95"] < 2.0
+    assert agg["nees"]["in_band_fraction"] >= 0.9           # the filter is consistent
+    assert [r["seed"] for r in report["runs"]] == list(range(20))
+    for run in report["runs"]:
+        assert set(run) == RUN_FIELDS
+        assert len(run["landmark_errors_m"]) == 2 and max(run["landmark_errors_m"]) < 2.0
+        assert 160.0 <= run["path_length_m"] < 175.0          # the straight line is 160 m
+    png = (tmp_path / "fig.png").read_bytes()
+    assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 20_000
+
+
+def test_runs_are_reproducible_by_seed(tmp_path):
+    a = simulate(tmp_path, "--scenario", "config/scenarios/paper.yaml", "--runs", "2", "--seed", "5")
+    b = simulate(tmp_path, "--scenario", "config/scenarios/paper.yaml", "--runs", "1", "--seed", "6")
+    assert a["runs"][1] == b["runs"][0]
+
+
+def test_potential_field_is_trapped_where_the_cone_is_not(tmp_path):
+    cone = simulate(tmp_path, "--scenario", "config/scenarios/apf-trap.yaml", "--runs", "5",
+                    "--strategy", "cone")
+    apf = simulate(tmp_path, "--scenario", "config/scenarios/apf-trap.yaml", "--runs", "5",
+                   "--strategy", "apf")
+    assert cone["aggregate"]["success_rate"] == 1.0
+    assert apf["aggregate"]["strategy"] == "apf"
+    assert apf["aggregate"]["success_rate"] <= 0.4
+    stuck = [r for r in apf["runs"] if not r["reached_goal"]]
+    assert stuck and all(r["final_goal_distance_m"] > 2.0 for r in stuck)
+
+
+def test_bad_scenario_gives_exit_2_and_names_the_file(tmp_path, capsys):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("name: x\nworld: 3\n")
+    assert main(["simulate", "--scenario", str(bad)]) == 2
+    assert f"{bad}: world: expected a mapping" in capsys.readouterr().err
