@@ -270,7 +270,129 @@ class Scenario:
 
 def load_scenario(path: str | Path) -> Scenario:
     """Read and validate a scenario file; a mistake raises ConfigError naming file and key."""
-    return build(Scenario, read_yaml(path), path)
+    from companion.paths import resolve_config
+    return build(Scenario, read_yaml(resolve_config(path)), path)
 
 
 __all__ = ["ConfigError", "Scenario", "load_scenario", "AvoidanceConfig", "EstimatorConfig"]
+
+
+# ------------------------------------------------------ companion service
+# Settings of `companion run` / `demo` / `replay` (config/companion.yaml). The estimator and
+# avoidance sections reuse the dataclasses above, so a scenario's values can be dropped in.
+@dataclass(frozen=True)
+class LinkConfig:
+    """Identities and link timing. ``None`` ids are discovered from the vehicle's heartbeat."""
+    component_id: int = 191                   # MAV_COMP_ID_ONBOARD_COMPUTER
+    system_id: int | None = None              # ours; None: the vehicle's
+    vehicle_system_id: int | None = None      # pin the vehicle; None: first autopilot heartbeat
+    vehicle_component_id: int | None = None   # None: the component of that heartbeat
+    camera_component_id: int = 100            # MAV_COMP_ID_CAMERA: obstacle reports come from here
+    guided_custom_mode: int = 4               # ArduCopter GUIDED
+    heartbeat_rate_hz: float = 1.0
+    heartbeat_timeout_s: float = 3.0          # vehicle heartbeat older than this: stop commanding
+    reconnect_interval_s: float = 1.0
+    inbox_size: int = 1000
+
+    def __post_init__(self) -> None:
+        for key in ("component_id", "camera_component_id"):
+            require(1 <= getattr(self, key) <= 255, key, getattr(self, key), "an id in [1, 255]")
+        for key in ("system_id", "vehicle_system_id", "vehicle_component_id"):
+            value = getattr(self, key)
+            require(value is None or 1 <= value <= 255, key, value, "an id in [1, 255] or null")
+        require(self.guided_custom_mode >= 0, "guided_custom_mode", self.guided_custom_mode,
+                "a custom mode number >= 0")
+        for key in ("heartbeat_rate_hz", "heartbeat_timeout_s", "reconnect_interval_s"):
+            _positive(key, getattr(self, key))
+        require(self.inbox_size >= 10, "inbox_size", self.inbox_size, "an integer >= 10")
+
+
+@dataclass(frozen=True)
+class StreamsConfig:
+    """Telemetry the companion asks the autopilot for, and how it asks."""
+    attitude_rate_hz: float = 10.0
+    local_position_rate_hz: float = 10.0
+    ack_timeout_s: float = 1.0                # SET_MESSAGE_INTERVAL unanswered: retry, then fall back
+    attempts: int = 3
+    rerequest_after_s: float = 3.0            # no odometry this long after a request: ask again
+
+    def __post_init__(self) -> None:
+        for key in ("attitude_rate_hz", "local_position_rate_hz", "ack_timeout_s",
+                    "rerequest_after_s"):
+            _positive(key, getattr(self, key))
+        require(self.attempts >= 1, "attempts", self.attempts, "an integer >= 1")
+
+
+@dataclass(frozen=True)
+class CommandingConfig:
+    """What the companion sends and the limits it never exceeds."""
+    cruise_speed_mps: float = 5.0
+    max_speed_mps: float = 8.0
+    max_turn_rate_deg_s: float = 30.0
+    setpoint_rate_hz: float = 10.0
+    odometry_rate_hz: float = 5.0             # ODOMETRY (the SLAM pose) out
+    max_attitude_age_s: float = 0.5           # odometry pairs LOCAL_POSITION_NED with ATTITUDE this recent
+
+    def __post_init__(self) -> None:
+        for key in ("cruise_speed_mps", "max_speed_mps", "max_turn_rate_deg_s", "setpoint_rate_hz",
+                    "odometry_rate_hz", "max_attitude_age_s"):
+            _positive(key, getattr(self, key))
+        require(self.cruise_speed_mps <= self.max_speed_mps, "cruise_speed_mps",
+                self.cruise_speed_mps, f"a speed <= max_speed_mps ({self.max_speed_mps})")
+
+    @property
+    def max_turn_rate_rad_s(self) -> float:
+        return math.radians(self.max_turn_rate_deg_s)
+
+    @property
+    def setpoint_period_s(self) -> float:
+        return 1.0 / self.setpoint_rate_hz
+
+
+@dataclass(frozen=True)
+class FailsafeConfig:
+    """Safe action on stale obstacle data or a diverged estimator.
+
+    hold: velocity 0 at the current yaw; stop: send nothing (ArduCopter's GUID_TIMEOUT then stops).
+    """
+    safe_action: Literal["hold", "stop"] = "hold"
+    obstacle_timeout_s: float = 2.0           # camera silent this long (message time): stale
+    require_camera: bool = True               # no camera seen at all counts as stale
+
+    def __post_init__(self) -> None:
+        _positive("obstacle_timeout_s", self.obstacle_timeout_s)
+
+
+@dataclass(frozen=True)
+class GoalConfig:
+    north_m: float
+    east_m: float
+    radius_m: float = 2.0
+
+    def __post_init__(self) -> None:
+        _positive("radius_m", self.radius_m)
+
+
+@dataclass(frozen=True)
+class CompanionConfig:
+    estimator: EstimatorConfig
+    avoidance: AvoidanceConfig
+    link: LinkConfig = field(default_factory=LinkConfig)
+    streams: StreamsConfig = field(default_factory=StreamsConfig)
+    commanding: CommandingConfig = field(default_factory=CommandingConfig)
+    failsafe: FailsafeConfig = field(default_factory=FailsafeConfig)
+    goal: GoalConfig | None = None            # or --goal NORTH,EAST on the command line
+
+    def guidance_params(self, goal_radius_m: float) -> GuidanceParams:
+        return self.avoidance.guidance_params(self.commanding.cruise_speed_mps, goal_radius_m)
+
+
+def load_config(path: str | Path) -> CompanionConfig:
+    """Read and validate a companion config; a mistake raises ConfigError naming file and key."""
+    return build(CompanionConfig, read_yaml(path), path)
+
+
+def config_to_dict(config) -> dict:
+    """A config dataclass as plain YAML-able data (the inverse of load_config)."""
+    import dataclasses
+    return dataclasses.asdict(config)

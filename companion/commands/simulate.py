@@ -4,7 +4,11 @@ from __future__ import annotations
 import argparse
 import sys
 
+from companion.errors import CompanionError
 from companion.config import load_scenario
+from companion.worlds import KINDS, random_world
+
+DEFAULT_SCENARIO = "config/scenarios/paper.yaml"
 from companion.report import print_summary, write_json
 from companion.simulation import aggregate, run_once
 
@@ -13,7 +17,12 @@ def add_parser(sub) -> None:
     p = sub.add_parser("simulate", help="fly a scenario in-process (no MAVLink), N seeded runs",
                        description="Closed loop in-process: truth world, noisy sensors, EKF-SLAM, "
                                    "guidance on the estimate. Run i uses seed S+i.")
-    p.add_argument("--scenario", required=True, help="scenario YAML (see config/scenarios/)")
+    p.add_argument("--scenario", help="scenario YAML (see config/scenarios/); with --random-worlds, "
+                                      "the base whose vehicle, sensor and guidance are kept "
+                                      f"(default {DEFAULT_SCENARIO})")
+    p.add_argument("--random-worlds", choices=sorted(KINDS), metavar="KIND",
+                   help="fly seeded random worlds instead: run i flies world S+i "
+                        f"({', '.join(sorted(KINDS))})")
     p.add_argument("--runs", type=_positive_int, default=1, help="number of runs (default 1)")
     p.add_argument("--seed", type=int, default=0, help="seed of the first run (default 0)")
     p.add_argument("--strategy", choices=("cone", "apf"), default=None,
@@ -31,21 +40,25 @@ def _positive_int(text: str) -> int:
 
 
 def run(args: argparse.Namespace) -> int:
-    scenario = load_scenario(args.scenario)
+    if args.scenario is None and args.random_worlds is None:
+        raise CompanionError("simulate: give --scenario PATH or --random-worlds KIND")
+    scenario = load_scenario(args.scenario or DEFAULT_SCENARIO)
     strategy = args.strategy or scenario.avoidance.strategy
     seeds = range(args.seed, args.seed + args.runs)
     outcomes = []
     from tqdm import tqdm
     for seed in tqdm(seeds, desc="simulate", unit="run", disable=args.runs < 2 or not sys.stderr.isatty()):
-        outcomes.append(run_once(scenario, seed, strategy))
+        world = random_world(scenario, args.random_worlds, seed) if args.random_worlds else scenario
+        outcomes.append(run_once(world, seed, strategy))
     agg = aggregate(outcomes, scenario.avoidance.safety_distance_m)
     agg["strategy"] = strategy
-    agg["scenario"] = scenario.name
+    agg["scenario"] = f"random-{args.random_worlds}" if args.random_worlds else scenario.name
     report = {"aggregate": agg, "runs": [o.summary for o in outcomes]}
     if args.json:
         write_json(args.json, report)
     if args.plot:
         from companion.plot import plot_run
-        plot_run(args.plot, scenario, outcomes[0], title=f"{scenario.name}: {strategy}, seed {args.seed}")
+        first = random_world(scenario, args.random_worlds, args.seed) if args.random_worlds else scenario
+        plot_run(args.plot, first, outcomes[0], title=f"{first.name}: {strategy}, seed {args.seed}")
     print_summary(report, sys.stdout)
     return 0

@@ -1,0 +1,77 @@
+"""Seeded random worlds for Monte Carlo: sparse, dense and moving obstacle fields.
+
+``random_world(base, kind, seed)`` keeps everything of ``base`` (vehicle, noise, sensor, guidance)
+and replaces the world: a leg of 120 to 300 m due north, obstacles scattered in a corridor around
+it. The same seed always gives the same world, so strategies can be compared on identical worlds.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from companion.config import Goal, Obstacle, Scenario, StartPose, World
+
+
+@dataclass(frozen=True)
+class FieldSpec:
+    """How a kind of world is drawn."""
+    count: tuple[int, int]                 # obstacles, inclusive range
+    radius_m: tuple[float, float]
+    min_spacing_m: float                   # centre to centre
+    leg_m: tuple[float, float]             # start-goal distance
+    corridor_half_width_m: float
+    moving_fraction: float = 0.0
+    speed_mps: tuple[float, float] = (0.3, 2.0)
+    clear_of_ends_m: float = 15.0          # no obstacle this close to the start or the goal (beyond d)
+
+
+KINDS = {
+    "sparse": FieldSpec(count=(3, 8), radius_m=(1.0, 3.0), min_spacing_m=24.0, leg_m=(120.0, 300.0),
+                        corridor_half_width_m=25.0),
+    "dense": FieldSpec(count=(5, 20), radius_m=(1.0, 3.0), min_spacing_m=12.0, leg_m=(120.0, 300.0),
+                       corridor_half_width_m=25.0),
+    "moving": FieldSpec(count=(5, 20), radius_m=(1.0, 3.0), min_spacing_m=12.0, leg_m=(120.0, 300.0),
+                        corridor_half_width_m=25.0, moving_fraction=0.3),
+}
+
+
+def random_world(base: Scenario, kind: str, seed: int) -> Scenario:
+    """A scenario like ``base`` flying a freshly drawn world of ``kind`` (see KINDS)."""
+    if kind not in KINDS:
+        raise ValueError(f"unknown world kind {kind!r} (expected one of {', '.join(KINDS)})")
+    spec = KINDS[kind]
+    rng = np.random.default_rng([seed, 0x5EED])     # independent of the run's noise stream
+    leg = rng.uniform(*spec.leg_m)
+    d = base.avoidance.safety_distance_m
+    keep_out = d + spec.clear_of_ends_m
+    wanted = int(rng.integers(spec.count[0], spec.count[1] + 1))
+    centres: list[np.ndarray] = []
+    for _ in range(2000):
+        if len(centres) == wanted:
+            break
+        c = np.array([rng.uniform(0.0, leg), rng.uniform(-1.0, 1.0) * spec.corridor_half_width_m])
+        if np.hypot(*c) < keep_out or np.hypot(c[0] - leg, c[1]) < keep_out:
+            continue
+        if any(np.hypot(*(c - o)) < spec.min_spacing_m for o in centres):
+            continue
+        centres.append(c)
+    obstacles = []
+    for i, c in enumerate(centres):
+        vel = (0.0, 0.0)
+        if rng.random() < spec.moving_fraction:
+            speed, heading = rng.uniform(*spec.speed_mps), rng.uniform(-math.pi, math.pi)
+            vel = (speed * math.cos(heading), speed * math.sin(heading))
+        obstacles.append(Obstacle(id=i + 1, north_m=float(c[0]), east_m=float(c[1]),
+                                  radius_m=float(rng.uniform(*spec.radius_m)),
+                                  vel_north_mps=vel[0], vel_east_mps=vel[1]))
+    world = World(start=StartPose(0.0, 0.0, 0.0), goal=Goal(float(leg), 0.0, base.world.goal.radius_m),
+                  obstacles=tuple(obstacles), origin=base.world.origin)
+    # Long legs and detours need time: allow three times the straight-line flight.
+    max_time = max(base.mission.max_time_s, 3.0 * leg / base.vehicle.speed_mps)
+    mission = dataclasses.replace(base.mission, max_time_s=max_time)
+    avoidance = dataclasses.replace(base.avoidance, mission_time_s=max_time)
+    return dataclasses.replace(base, name=f"{kind}-{seed}", world=world, mission=mission,
+                               avoidance=avoidance)
