@@ -14,6 +14,7 @@ acceleration-only target (the 2D model has no acceleration control).
 
 GUID_TIMEOUT (ModeGuided velaccel/posvelaccel control): if no new target arrives for
 max(GUID_TIMEOUT, 0.1) s, velocity (and yaw rate) targets are zeroed; a position target stays.
+After a velocity target times out the vehicle decelerates and keeps its current heading.
 """
 from __future__ import annotations
 
@@ -146,7 +147,9 @@ def demand_for(target: GuidedTarget | None, odom: Odometry, t_s: float, guid_tim
     timed_out = age_s > guid_timeout_s
     if target.kind == KIND_VELOCITY:
         if timed_out:
-            return velocity_demand(0.0, 0.0, target.yaw_rad, None)
+            # Stop and keep the current heading. (ArduCopter would keep an angle target, but
+            # in this model the vehicle never turned to a yaw that differed from its velocity.)
+            return HOLD
         return velocity_demand(target.vel_north_mps, target.vel_east_mps, target.yaw_rad,
                                target.yaw_rate_rad_s)
     if target.kind == KIND_POSITION:

@@ -149,7 +149,7 @@ def message_interval(msg_id: int, interval_us: int) -> mavlink.MAVLink_message:
 
 def mission_count(target_system: int, target_component: int,
                   mission_type: int) -> mavlink.MAVLink_message:
-    return mavlink.MAVLink_mission_count_message(target_system, target_component, 0, mission_type, 0)
+    return mavlink.MAVLink_mission_count_message(target_system, target_component, 0, mission_type)
 
 
 def ftp_nak(request_payload: list[int] | bytes, error_code: int, target_system: int,
