@@ -1,0 +1,405 @@
+"""MAVLink <-> typed events. The ONLY module that knows MAVLink field names, ids and scalings.
+
+Inbound messages become frozen events in SI units (seconds, metres, radians); outbound intents
+become pymavlink messages. Times: ``t_s`` is the vehicle's time since boot (time_boot_ms / 1000),
+the estimator's clock. Frames: LOCAL_NED (x north, y east, yaw clockwise from north) and body FRD
+(x forward, y right; bearing = atan2(y, x), positive to the right). docs/messages.md lists every
+message used here with its fields and units.
+"""
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass
+
+os.environ.setdefault("MAVLINK20", "1")
+from pymavlink.dialects.v20 import ardupilotmega as mavlink  # noqa: E402
+
+from companion.core.ekf_slam import Observation  # noqa: E402
+
+MAV_COMP_ID_AUTOPILOT1 = mavlink.MAV_COMP_ID_AUTOPILOT1
+MAV_COMP_ID_ONBOARD_COMPUTER = mavlink.MAV_COMP_ID_ONBOARD_COMPUTER    # 191
+MAV_COMP_ID_MISSIONPLANNER = mavlink.MAV_COMP_ID_MISSIONPLANNER        # 190, the demo's GCS
+NO_OBSTACLE_ID = 65535                                                # UINT16_MAX: "no id"
+MSG_ID_ATTITUDE = mavlink.MAVLINK_MSG_ID_ATTITUDE
+MSG_ID_LOCAL_POSITION_NED = mavlink.MAVLINK_MSG_ID_LOCAL_POSITION_NED
+# SET_POSITION_TARGET_LOCAL_NED.type_mask: ignore position (0x7), acceleration (0x1C0) and yaw
+# rate (0x800); use velocity and yaw.
+VELOCITY_YAW_TYPE_MASK = 0x09C7
+# REQUEST_DATA_STREAM fallback: LOCAL_POSITION_NED rides POSITION, ATTITUDE rides EXTRA1.
+DATA_STREAMS_FOR = {MSG_ID_LOCAL_POSITION_NED: mavlink.MAV_DATA_STREAM_POSITION,
+                    MSG_ID_ATTITUDE: mavlink.MAV_DATA_STREAM_EXTRA1}
+SEVERITY_WARNING = mavlink.MAV_SEVERITY_WARNING
+SEVERITY_NOTICE = mavlink.MAV_SEVERITY_NOTICE
+SEVERITY_INFO = mavlink.MAV_SEVERITY_INFO
+SEVERITY_ERROR = mavlink.MAV_SEVERITY_ERROR
+STATUSTEXT_MAX_CHARS = 50
+
+
+def make_mavlink(system_id: int, component_id: int) -> mavlink.MAVLink:
+    """A MAVLink 2 parser/encoder with no file: bytes go in via parse_buffer, out via pack."""
+    mav = mavlink.MAVLink(None, srcSystem=system_id, srcComponent=component_id)
+    mav.robust_parsing = True
+    return mav
+
+
+def source(msg) -> tuple[int, int]:
+    """(system id, component id) of a received message."""
+    return msg.get_srcSystem(), msg.get_srcComponent()
+
+
+# ------------------------------------------------------------------ inbound events
+@dataclass(frozen=True)
+class Heartbeat:
+    system_id: int
+    component_id: int
+    mav_type: int
+    is_autopilot: bool        # autopilot field is not MAV_AUTOPILOT_INVALID
+    armed: bool
+    custom_mode: int
+
+
+@dataclass(frozen=True)
+class Attitude:
+    system_id: int
+    component_id: int
+    t_s: float
+    yaw_rad: float
+    yaw_rate_rad_s: float
+
+
+@dataclass(frozen=True)
+class LocalPosition:
+    system_id: int
+    component_id: int
+    t_s: float
+    north_m: float
+    east_m: float
+    vel_north_mps: float
+    vel_east_mps: float
+
+
+@dataclass(frozen=True)
+class ObstacleFrame:
+    """Observations of one obstacle message (one OBSTACLE_DISTANCE_3D or all valid sectors)."""
+    system_id: int
+    component_id: int
+    t_s: float
+    observations: tuple[Observation, ...]
+    rejected: str | None = None      # why the message gave no observation (frame, NaN, range)
+
+
+@dataclass(frozen=True)
+class CommandAck:
+    system_id: int
+    component_id: int
+    command: int
+    accepted: bool
+    result: int
+
+
+@dataclass(frozen=True)
+class StatusText:
+    system_id: int
+    component_id: int
+    severity: int
+    text: str
+
+
+Event = Heartbeat | Attitude | LocalPosition | ObstacleFrame | CommandAck | StatusText
+
+
+def decode(msg) -> Event | None:
+    """The event a received message carries, or None for messages the companion does not use."""
+    kind = msg.get_type()
+    handler = _DECODERS.get(kind)
+    return handler(msg, *source(msg)) if handler else None
+
+
+def _heartbeat(msg, sysid: int, compid: int) -> Heartbeat:
+    return Heartbeat(sysid, compid, msg.type, msg.autopilot != mavlink.MAV_AUTOPILOT_INVALID,
+                     bool(msg.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED), msg.custom_mode)
+
+
+def _attitude(msg, sysid: int, compid: int) -> Attitude:
+    return Attitude(sysid, compid, msg.time_boot_ms / 1000.0, msg.yaw, msg.yawspeed)
+
+
+def _local_position(msg, sysid: int, compid: int) -> LocalPosition:
+    return LocalPosition(sysid, compid, msg.time_boot_ms / 1000.0, msg.x, msg.y, msg.vx, msg.vy)
+
+
+def _obstacle_3d(msg, sysid: int, compid: int) -> ObstacleFrame:
+    """OBSTACLE_DISTANCE_3D in MAV_FRAME_BODY_FRD: range = hypot(x, y), bearing = atan2(y, x).
+
+    z is ignored (the model is 2D). Other frames are refused: turning a LOCAL_NED point into a
+    range and bearing needs the pose, and that belongs to the estimator, not here.
+    """
+    t_s = msg.time_boot_ms / 1000.0
+    if msg.frame != mavlink.MAV_FRAME_BODY_FRD:
+        return ObstacleFrame(sysid, compid, t_s, (), f"frame {msg.frame} not BODY_FRD")
+    if not (math.isfinite(msg.x) and math.isfinite(msg.y)):
+        return ObstacleFrame(sysid, compid, t_s, (), "non-finite position")
+    range_m = math.hypot(msg.x, msg.y)
+    if range_m <= 0.0 or (msg.max_distance > 0.0 and range_m > msg.max_distance) \
+            or range_m < msg.min_distance:
+        return ObstacleFrame(sysid, compid, t_s, (), f"range {range_m:.2f} m outside the sensor's")
+    oid = None if msg.obstacle_id == NO_OBSTACLE_ID else int(msg.obstacle_id)
+    return ObstacleFrame(sysid, compid, t_s,
+                         (Observation(range_m, math.atan2(msg.y, msg.x), oid),))
+
+
+def sector_bearings_rad(increment_deg: float, increment_f_deg: float, angle_offset_deg: float,
+                        count: int) -> list[float]:
+    """Bearing of each OBSTACLE_DISTANCE element: element i lies at angle_offset + i * increment
+    (the spec: angle_offset is 'the angle of the 0-index element'), clockwise positive.
+    increment_f, when non-zero, overrides the integer increment."""
+    step_deg = increment_f_deg if increment_f_deg > 0.0 else float(increment_deg)
+    return [math.radians(angle_offset_deg + i * step_deg) for i in range(count)]
+
+
+def _obstacle_sectors(msg, sysid: int, compid: int) -> ObstacleFrame:
+    """OBSTACLE_DISTANCE: one observation (no id) per sector holding a valid distance.
+
+    distances are centimetres; UINT16_MAX means unknown, max_distance + 1 means nothing seen,
+    anything outside [min_distance, max_distance] is not a detection. time_usec is read as time
+    since boot (ArduPilot and the stub stamp it so); frame 0 (unset) is taken as BODY_FRD.
+    """
+    t_s = msg.time_usec / 1e6
+    if msg.frame not in (0, mavlink.MAV_FRAME_BODY_FRD):
+        return ObstacleFrame(sysid, compid, t_s, (), f"frame {msg.frame} not BODY_FRD")
+    bearings = sector_bearings_rad(msg.increment, msg.increment_f, msg.angle_offset,
+                                   len(msg.distances))
+    observations = tuple(
+        Observation(cm / 100.0, math.atan2(math.sin(b), math.cos(b)), None)
+        for cm, b in zip(msg.distances, bearings)
+        if cm != NO_OBSTACLE_ID and msg.min_distance <= cm <= msg.max_distance)
+    return ObstacleFrame(sysid, compid, t_s, observations)
+
+
+def _command_ack(msg, sysid: int, compid: int) -> CommandAck:
+    return CommandAck(sysid, compid, msg.command, msg.result == mavlink.MAV_RESULT_ACCEPTED,
+                      msg.result)
+
+
+def _statustext(msg, sysid: int, compid: int) -> StatusText:
+    text = msg.text if isinstance(msg.text, str) else msg.text.decode("utf-8", "replace")
+    return StatusText(sysid, compid, msg.severity, text.rstrip("\x00"))
+
+
+_DECODERS = {
+    "HEARTBEAT": _heartbeat,
+    "ATTITUDE": _attitude,
+    "LOCAL_POSITION_NED": _local_position,
+    "OBSTACLE_DISTANCE_3D": _obstacle_3d,
+    "OBSTACLE_DISTANCE": _obstacle_sectors,
+    "COMMAND_ACK": _command_ack,
+    "STATUSTEXT": _statustext,
+}
+
+
+# ------------------------------------------------------------------ outbound intents
+@dataclass(frozen=True)
+class VelocitySetpoint:
+    """Velocity (LOCAL_NED, autopilot frame) and yaw for the vehicle; t_s is the vehicle's time."""
+    target_system: int
+    target_component: int
+    t_s: float
+    vel_north_mps: float
+    vel_east_mps: float
+    yaw_rad: float
+    reason: str                 # 'goal', 'avoid', 'escape', 'arrived', 'hold: ...'
+
+
+@dataclass(frozen=True)
+class PoseEstimate:
+    """The SLAM pose [north_m, east_m, yaw_rad] with its (3,3) covariance at vehicle time t_s."""
+    t_s: float
+    north_m: float
+    east_m: float
+    yaw_rad: float
+    cov: tuple[tuple[float, ...], ...]
+    reset_counter: int
+
+
+@dataclass(frozen=True)
+class Notice:
+    """A STATUSTEXT to the ground station."""
+    severity: int
+    text: str
+
+
+def ms_of(t_s: float) -> int:
+    """Vehicle time in whole milliseconds, as MAVLink carries it."""
+    return int(round(t_s * 1000.0)) & 0xFFFFFFFF
+
+
+def heartbeat() -> mavlink.MAVLink_heartbeat_message:
+    """Our HEARTBEAT: an onboard controller, not an autopilot."""
+    return mavlink.MAVLink_heartbeat_message(
+        mavlink.MAV_TYPE_ONBOARD_CONTROLLER, mavlink.MAV_AUTOPILOT_INVALID, 0, 0,
+        mavlink.MAV_STATE_ACTIVE, 3)
+
+
+def gcs_heartbeat() -> mavlink.MAVLink_heartbeat_message:
+    return mavlink.MAVLink_heartbeat_message(
+        mavlink.MAV_TYPE_GCS, mavlink.MAV_AUTOPILOT_INVALID, 0, 0, mavlink.MAV_STATE_ACTIVE, 3)
+
+
+def set_position_target(sp: VelocitySetpoint) -> mavlink.MAVLink_set_position_target_local_ned_message:
+    """SET_POSITION_TARGET_LOCAL_NED, MAV_FRAME_LOCAL_NED, velocity + yaw (vz = 0: hold height)."""
+    return mavlink.MAVLink_set_position_target_local_ned_message(
+        ms_of(sp.t_s), sp.target_system, sp.target_component, mavlink.MAV_FRAME_LOCAL_NED,
+        VELOCITY_YAW_TYPE_MASK, 0.0, 0.0, 0.0, sp.vel_north_mps, sp.vel_east_mps, 0.0,
+        0.0, 0.0, 0.0, sp.yaw_rad, 0.0)
+
+
+def setpoint_key(msg) -> tuple:
+    """The fields of a SET_POSITION_TARGET_LOCAL_NED that define it, for comparisons (float32)."""
+    return (msg.time_boot_ms, msg.target_system, msg.target_component, msg.coordinate_frame,
+            msg.type_mask, msg.vx, msg.vy, msg.vz, msg.yaw)
+
+
+# ODOMETRY.pose_covariance: upper triangle, row-major, of the 6x6 covariance of
+# (x, y, z, roll, pitch, yaw): 21 floats. Our (north, east, yaw) rows and columns land here.
+_POSE_COV_INDEX = {(0, 0): 0, (0, 1): 1, (0, 2): 5, (1, 1): 6, (1, 2): 10, (2, 2): 20}
+
+
+def pose_covariance_21(cov: tuple[tuple[float, ...], ...]) -> list[float]:
+    """The 21-float upper triangle from a (3,3) covariance over (north, east, yaw); NaN elsewhere
+    (z, roll, pitch are not estimated)."""
+    out = [math.nan] * 21
+    for (i, j), k in _POSE_COV_INDEX.items():
+        out[k] = float(cov[i][j])
+    return out
+
+
+def odometry(pose: PoseEstimate) -> mavlink.MAVLink_odometry_message:
+    """ODOMETRY: the SLAM pose in MAV_FRAME_LOCAL_NED, body FRD child frame, estimator VIO.
+
+    z, velocities and rates are not estimated: NaN, with velocity_covariance[0] = NaN (the spec's
+    'unknown'). time_usec is the vehicle's time since boot.
+    """
+    half = 0.5 * pose.yaw_rad
+    nan = math.nan
+    return mavlink.MAVLink_odometry_message(
+        int(round(pose.t_s * 1e6)), mavlink.MAV_FRAME_LOCAL_NED, mavlink.MAV_FRAME_BODY_FRD,
+        pose.north_m, pose.east_m, nan, [math.cos(half), 0.0, 0.0, math.sin(half)],
+        nan, nan, nan, nan, nan, nan, pose_covariance_21(pose.cov), [nan] * 21,
+        pose.reset_counter & 0xFF, mavlink.MAV_ESTIMATOR_TYPE_VIO, 0)
+
+
+def odometry_fields(msg) -> tuple[float, float, float]:
+    """(t_s, north_m, east_m) of a recorded ODOMETRY."""
+    return msg.time_usec / 1e6, msg.x, msg.y
+
+
+def statustext(notice: Notice) -> mavlink.MAVLink_statustext_message:
+    text = notice.text[:STATUSTEXT_MAX_CHARS].encode("ascii", "replace")
+    return mavlink.MAVLink_statustext_message(notice.severity, text, 0, 0)
+
+
+def set_message_interval(target_system: int, target_component: int, msg_id: int,
+                         rate_hz: float) -> mavlink.MAVLink_command_long_message:
+    return mavlink.MAVLink_command_long_message(
+        target_system, target_component, mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, 0,
+        float(msg_id), 1e6 / rate_hz, 0, 0, 0, 0, 0)
+
+
+def is_set_message_interval_ack(ack: CommandAck) -> bool:
+    return ack.command == mavlink.MAV_CMD_SET_MESSAGE_INTERVAL
+
+
+def request_data_stream(target_system: int, target_component: int, msg_id: int,
+                        rate_hz: float) -> mavlink.MAVLink_request_data_stream_message:
+    return mavlink.MAVLink_request_data_stream_message(
+        target_system, target_component, DATA_STREAMS_FOR[msg_id], max(1, round(rate_hz)), 1)
+
+
+def set_mode(target_system: int, target_component: int,
+             custom_mode: int) -> mavlink.MAVLink_command_long_message:
+    """MAV_CMD_DO_SET_MODE with a custom (ArduPilot) mode number."""
+    return mavlink.MAVLink_command_long_message(
+        target_system, target_component, mavlink.MAV_CMD_DO_SET_MODE, 0,
+        mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, float(custom_mode), 0, 0, 0, 0, 0)
+
+
+def arm(target_system: int, target_component: int,
+        armed: bool = True) -> mavlink.MAVLink_command_long_message:
+    return mavlink.MAVLink_command_long_message(
+        target_system, target_component, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 0,
+        1.0 if armed else 0.0, 0, 0, 0, 0, 0, 0)
+
+
+def is_ack_for(ack: CommandAck, command_name: str) -> bool:
+    """True if the ack answers the named command ('set_mode' or 'arm')."""
+    wanted = {"set_mode": mavlink.MAV_CMD_DO_SET_MODE,
+              "arm": mavlink.MAV_CMD_COMPONENT_ARM_DISARM}[command_name]
+    return ack.command == wanted
+
+
+def is_from_us(msg, component_id: int) -> bool:
+    """A message sent by a companion with our component id (for tlog replay)."""
+    return msg.get_srcComponent() == component_id and msg.get_type() != "BAD_DATA"
+
+
+def message_type(msg) -> str:
+    return msg.get_type()
+
+
+class Encoder:
+    """Packs outbound messages with our ids; MAVLink.send() advances the sequence number."""
+
+    def __init__(self, system_id: int, component_id: int) -> None:
+        self._mav = make_mavlink(system_id, component_id)
+        self._mav.file = self
+        self._last = b""
+
+    def write(self, data: bytes) -> None:        # MAVLink.send()'s file
+        self._last = bytes(data)
+
+    @property
+    def system_id(self) -> int:
+        return self._mav.srcSystem
+
+    @system_id.setter
+    def system_id(self, value: int) -> None:
+        self._mav.srcSystem = value
+
+    def encode(self, msg) -> bytes:
+        self._mav.send(msg)
+        return self._last
+
+
+class Parser:
+    """Bytes in, messages out. Counts packets that failed their CRC or could not be decoded."""
+
+    def __init__(self) -> None:
+        self._mav = make_mavlink(0, 0)
+        self.bad_packets = 0
+        self.unknown_packets = 0
+
+    def feed(self, data: bytes) -> list:
+        try:
+            msgs = self._mav.parse_buffer(data) or []
+        except mavlink.MAVError:
+            self.bad_packets += 1
+            return []
+        good = []
+        for msg in msgs:
+            kind = msg.get_type()
+            if kind == "BAD_DATA":
+                self.bad_packets += 1
+            elif kind.startswith("UNKNOWN_"):
+                self.unknown_packets += 1
+            else:
+                good.append(msg)
+        return good
+
+    def decode_packet(self, packet: bytes):
+        """One whole packet -> message, or None (bad CRC, unknown id, malformed)."""
+        try:
+            return self._mav.decode(bytearray(packet))
+        except Exception:   # pymavlink raises MAVError, struct.error, IndexError... on garbage
+            self.bad_packets += 1
+            return None
