@@ -144,19 +144,27 @@ def nees_band(runs: int, dim: int = 3, confidence: float = 0.95) -> tuple[float,
 
 def aggregate(outcomes: list[RunOutcome], safety_distance_m: float) -> dict:
     """The aggregate block of the JSON report."""
-    summaries = [o.summary for o in outcomes]
+    return aggregate_summaries([o.summary for o in outcomes],
+                               [o.trace.pose_nees for o in outcomes], safety_distance_m)
+
+
+def aggregate_summaries(summaries: list[dict], pose_nees: list, safety_distance_m: float) -> dict:
+    """``aggregate`` from what a run leaves behind: its summary and its per-step pose NEES.
+
+    ``pose_nees[i]`` is run i's NEES sequence (any length); campaigns ship only these, not traces.
+    """
     clearances = np.array([s["min_clearance_m"] if s["min_clearance_m"] is not None else math.inf
                            for s in summaries])
     errors = np.array([s["final_position_error_m"] for s in summaries])
     success = [s["reached_goal"] and c >= 0.95 * safety_distance_m
                for s, c in zip(summaries, clearances)]
-    steps = min(len(o.trace.pose_nees) for o in outcomes)
-    nees = np.array([o.trace.pose_nees[:steps] for o in outcomes]).reshape(len(outcomes), steps)
+    steps = min(len(n) for n in pose_nees)
+    nees = np.array([np.asarray(n, dtype=float)[:steps] for n in pose_nees]).reshape(len(summaries), steps)
     avg = nees.mean(axis=0) if steps else np.array([])
-    lo, hi = nees_band(len(outcomes))
+    lo, hi = nees_band(len(summaries))
     finite_clear = clearances[np.isfinite(clearances)]
     return {
-        "runs": len(outcomes),
+        "runs": len(summaries),
         "success_rate": float(np.mean(success)),
         "collision_rate": float(np.mean([s["collided"] for s in summaries])),
         "min_clearance_m": {
