@@ -295,3 +295,36 @@ def test_sigterm_exits_0_and_flushes_truth_log(tmp_path):
     rows = read_truth_log(log_path)     # every line complete JSON after the exit flush
     assert rows[-1]["t_s"] > 0 and rows[0]["mode"] == "STABILIZE"
     assert "clean shutdown" in stub.stderr()
+
+
+def test_signing_signs_output_and_refuses_unsigned_commands(tmp_path):
+    key = bytes(range(32))
+    key_file = tmp_path / "key.hex"
+    key_file.write_text(key.hex() + "\n")
+    stub = start_stub(tmp_path, "--speedup", "5", "--signing-key", str(key_file))
+    signed = connect_tcp(stub.tcp_port)
+    signed.setup_signing(key, sign_outgoing=True)
+    unsigned = connect_tcp(stub.tcp_port, source_system=254)
+    try:
+        hb = wait_heartbeat(signed)
+        assert hb is not None and hb._signed        # verified with the key by the client
+        unsigned.mav.param_request_read_send(1, 1, b"ANGLE_MAX", -1)
+        assert wait_for(signed, lambda m: m.param_id == "ANGLE_MAX", 2.0, "PARAM_VALUE") is None
+        signed.mav.param_request_read_send(1, 1, b"ANGLE_MAX", -1)
+        m = wait_for(signed, lambda m: m.param_id == "ANGLE_MAX", 5.0, "PARAM_VALUE")
+        assert m is not None and m._signed
+    finally:
+        signed.close()
+        unsigned.close()
+        assert stub.stop() == 0
+    stats = [line for line in stub.stderr().splitlines() if "link statistics" in line][-1]
+    assert int(stats.split("unsigned_rejected=")[1].split(",")[0]) >= 1, stats
+
+
+def test_bad_signing_key_file_exits_2(tmp_path):
+    key_file = tmp_path / "key.hex"
+    key_file.write_text("abc\n")
+    proc = subprocess.run(stub_command("--scenario", str(PAPER), "--tcp", "127.0.0.1:0",
+                                       "--signing-key", str(key_file)),
+                          capture_output=True, text=True, timeout=30)
+    assert proc.returncode == 2 and "64 hex" in proc.stderr
