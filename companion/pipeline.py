@@ -75,7 +75,9 @@ class UrgencyRecord:
 class Pipeline:
     """Vehicle tracking, odometry pairing, estimation, guidance and commanding rules."""
 
-    def __init__(self, config: CompanionConfig, goal: GoalConfig, record_track: bool = False) -> None:
+    def __init__(self, config: CompanionConfig, goal: GoalConfig | None,
+                 record_track: bool = False) -> None:
+        """``goal`` None: estimate only (a foreign tlog without a mission): no decisions."""
         self.config = config
         self.goal = goal
         self.record_track = record_track
@@ -127,6 +129,11 @@ class Pipeline:
         elif isinstance(event, codec.ObstacleFrame):
             self._on_obstacles(t_link_s, event, out)
         return out
+
+    @property
+    def heartbeat_link_s(self) -> float | None:
+        """Link time of the vehicle's last heartbeat."""
+        return self._heartbeat_link_s
 
     def commanding_allowed(self, t_link_s: float) -> bool:
         """Armed, in GUIDED, and the vehicle's heartbeat is fresh: setpoints may be sent."""
@@ -254,16 +261,17 @@ class Pipeline:
         self._maybe_publish_pose(lpn.t_s, out)
         due = (self._last_decision_t_s is None or lpn.t_s - self._last_decision_t_s
                >= self.config.commanding.setpoint_period_s - TIME_EPS_S)
-        if reports or due:
+        if (reports or due) and self.goal is not None:
             self._decide(t_link_s, lpn.t_s, out)
 
     def _make_navigator(self, north_m: float, east_m: float, yaw_rad: float) -> Navigator:
         est = self.config.estimator
+        goal = self.goal or GoalConfig(north_m, east_m)
         pose_cov = np.diag([est.initial_position_sigma_m ** 2, est.initial_position_sigma_m ** 2,
                             math.radians(est.initial_yaw_sigma_deg) ** 2])
         return Navigator(np.array([north_m, east_m, wrap_angle(yaw_rad)]), pose_cov,
-                         est.slam_noise(), est.gates(), self.config.guidance_params(self.goal.radius_m),
-                         np.array([self.goal.north_m, self.goal.east_m]),
+                         est.slam_noise(), est.gates(), self.config.guidance_params(goal.radius_m),
+                         np.array([goal.north_m, goal.east_m]),
                          self.config.avoidance.strategy)
 
     def _maybe_publish_pose(self, t_s: float, out: list[Output]) -> None:
@@ -297,7 +305,7 @@ class Pipeline:
             if report.action == "added":
                 log.info("new landmark %s (obstacle id %s)", report.landmark_index,
                          report.obstacle_id)
-        if reports:
+        if reports and self.goal is not None:
             self._decide(t_link_s, self.navigator.t_s, out)
 
     # ------------------------------------------------------------ guidance and commanding
@@ -403,8 +411,7 @@ def snapshot(pipeline: Pipeline) -> dict:
     return {
         "vehicle": list(pipeline.vehicle) if pipeline.vehicle else None,
         "other_vehicles": sorted(pipeline.other_vehicles),
-        "goal": {"north_m": pipeline.goal.north_m, "east_m": pipeline.goal.east_m,
-                 "radius_m": pipeline.goal.radius_m},
+        "goal": asdict(pipeline.goal) if pipeline.goal is not None else None,
         "started_t_s": pipeline.started_t_s,
         "arrived": pipeline.arrival_t_s is not None,
         "arrival_t_s": pipeline.arrival_t_s,

@@ -1,0 +1,78 @@
+"""``companion run``: the daemon beside the autopilot (estimate, avoid, command over MAVLink)."""
+from __future__ import annotations
+
+import argparse
+import asyncio
+import dataclasses
+import sys
+
+from companion.config import CompanionConfig, GoalConfig, load_config
+from companion.errors import CompanionError, ConfigError
+from companion.paths import resolve_config
+
+DEFAULT_CONFIG = "config/companion.yaml"
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser(
+        "run", help="the companion daemon: connect to the vehicle and fly it around obstacles",
+        description="Connects to the autopilot, estimates pose and obstacle map (EKF-SLAM) from its "
+                    "odometry and the camera's obstacle reports, and while the vehicle is armed in "
+                    "GUIDED sends velocity setpoints toward the goal, deflected by the collision "
+                    "cone. SIGINT/SIGTERM stop it cleanly.")
+    p.add_argument("--connect", required=True, metavar="URL",
+                   help="udpin:HOST:PORT, udpout:HOST:PORT, tcp:HOST:PORT, tcpin:HOST:PORT or "
+                        "/dev/ttyX:BAUD")
+    p.add_argument("--config", default=DEFAULT_CONFIG, help=f"YAML settings (default {DEFAULT_CONFIG})")
+    p.add_argument("--goal", metavar="NORTH,EAST[,RADIUS]",
+                   help="goal in LOCAL_NED metres (overrides the config's goal)")
+    p.add_argument("--tlog", metavar="PATH",
+                   help="record every message received and sent (PATH.config.yaml gets the config)")
+    p.add_argument("--report", metavar="PATH",
+                   help="write the estimated track, map and events as JSON (at start, arrival, exit)")
+    p.add_argument("--sysid", type=int, help="pin the vehicle's system id")
+    p.set_defaults(handler=run)
+
+
+def parse_goal(text: str) -> GoalConfig:
+    try:
+        values = [float(v) for v in text.split(",")]
+    except ValueError:
+        values = []
+    if len(values) not in (2, 3):
+        raise ConfigError(f"--goal: expected NORTH,EAST or NORTH,EAST,RADIUS in metres, got {text!r}")
+    return GoalConfig(*values)
+
+
+def effective_config(args: argparse.Namespace) -> CompanionConfig:
+    """The config file with the command line's overrides applied."""
+    config = load_config(resolve_config(args.config))
+    if args.goal:
+        config = dataclasses.replace(config, goal=parse_goal(args.goal))
+    if config.goal is None:
+        raise ConfigError(f"{args.config}: goal: not set; give --goal NORTH,EAST or a goal: section")
+    if getattr(args, "sysid", None) is not None:
+        config = dataclasses.replace(config, link=dataclasses.replace(
+            config.link, vehicle_system_id=args.sysid))
+    return config
+
+
+def run(args: argparse.Namespace) -> int:
+    from companion.service import run_service
+    config = effective_config(args)
+    try:
+        asyncio.run(run_service(config, args.connect, args.tlog, args.report))
+    except BaseExceptionGroup as group:
+        # A CompanionError raised inside the task tree (e.g. the link) is theirs: say it plainly.
+        # Anything else is our bug and keeps its traceback.
+        match, rest = group.split(CompanionError)
+        if match is None or rest is not None:
+            raise
+        print(f"companion: {_first_leaf(match)}", file=sys.stderr)
+        return 2
+    return 0
+
+
+def _first_leaf(group: BaseExceptionGroup) -> BaseException:
+    first = group.exceptions[0]
+    return _first_leaf(first) if isinstance(first, BaseExceptionGroup) else first

@@ -1,0 +1,231 @@
+"""``companion run`` wiring: link, tlog, pipeline and timers in one asyncio task tree.
+
+No maths here. The :class:`~companion.pipeline.Pipeline` decides everything from the inbound
+stream; this module only adds what a live daemon needs on top: sockets (the link), wall-clock
+timers (our heartbeat, the vehicle-heartbeat watchdog, stream requests, tlog flushing) and
+sending. Tasks, one job each:
+
+  receive    the link's transport (TCP reconnects)
+  estimate   inbox -> tlog -> codec -> pipeline -> send
+  heartbeat  our HEARTBEAT at link.heartbeat_rate_hz
+  watchdog   logs vehicle-heartbeat loss; asks for streams again when odometry stays away
+  streams    SET_MESSAGE_INTERVAL (acked, retried), else REQUEST_DATA_STREAM
+  tlog       flush twice a second
+  stop       SIGINT/SIGTERM -> ShutdownRequested
+"""
+from __future__ import annotations
+
+import asyncio
+import json
+import logging
+import os
+import signal
+from dataclasses import asdict
+from pathlib import Path
+
+import yaml
+
+from companion.adapters import codec
+from companion.adapters.mavlink_link import MavlinkLink, open_link
+from companion.adapters.tlog import TlogWriter
+from companion.config import CompanionConfig, config_to_dict
+from companion.errors import ShutdownRequested
+from companion.pipeline import Arrived, NavigatorStarted, Pipeline, StreamsWanted, snapshot
+from companion.report import _clean
+
+log = logging.getLogger(__name__)
+
+TLOG_FLUSH_INTERVAL_S = 0.5
+WATCHDOG_INTERVAL_S = 0.2
+PLACEHOLDER_SYSTEM_ID = 1        # our system id until the vehicle's is known (if not configured)
+STREAMS = ((codec.MSG_ID_ATTITUDE, "attitude_rate_hz"),
+           (codec.MSG_ID_LOCAL_POSITION_NED, "local_position_rate_hz"))
+
+
+def sidecar_config_path(tlog_path: str | Path) -> Path:
+    """Where the effective config of a recorded run is written: FILE.tlog -> FILE.config.yaml."""
+    return Path(tlog_path).with_suffix(".config.yaml")
+
+
+def write_json_atomic(path: str | Path, data: dict) -> None:
+    path = Path(path)
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(json.dumps(_clean(data)) + "\n")
+    os.replace(tmp, path)
+
+
+class Service:
+    """The live daemon around one Pipeline."""
+
+    def __init__(self, config: CompanionConfig, link: MavlinkLink, tlog: TlogWriter | None,
+                 report_path: str | Path | None) -> None:
+        self.config = config
+        self.link = link
+        self.tlog = tlog
+        self.report_path = report_path
+        self.pipeline = Pipeline(config, config.goal, record_track=report_path is not None)
+        self.streams_wanted = asyncio.Event()
+        self.acks: asyncio.Queue[codec.CommandAck] = asyncio.Queue(maxsize=16)
+        self.stop = asyncio.Event()
+        self._odometry_seen = asyncio.Event()
+        if tlog is not None:
+            link.on_sent = tlog.write
+        link.on_connect = self.streams_wanted.set
+
+    # ------------------------------------------------------------ tasks
+    async def estimate(self) -> None:
+        link, pipeline = self.link, self.pipeline
+        while True:
+            received = await link.inbox.get()
+            if self.tlog is not None:
+                self.tlog.write(received.t_us, bytes(received.msg.get_msgbuf()))
+            event = codec.decode(received.msg)
+            if isinstance(event, codec.CommandAck) and pipeline.vehicle == (
+                    event.system_id, event.component_id) and not self.acks.full():
+                self.acks.put_nowait(event)
+            elif isinstance(event, codec.LocalPosition):
+                self._odometry_seen.set()
+            for output in pipeline.handle(received.t_us / 1e6, event):
+                await self._dispatch(output)
+
+    async def _dispatch(self, output) -> None:
+        link = self.link
+        if self.config.link.system_id is None and self.pipeline.vehicle is not None:
+            link.encoder.system_id = self.pipeline.vehicle[0]
+        if isinstance(output, codec.VelocitySetpoint):
+            link.send(codec.set_position_target(output))
+        elif isinstance(output, codec.PoseEstimate):
+            link.send(codec.odometry(output))
+        elif isinstance(output, codec.Notice):
+            link.send(codec.statustext(output))
+        elif isinstance(output, StreamsWanted):
+            log.info("asking for telemetry streams: %s", output.reason)
+            self.streams_wanted.set()
+        elif isinstance(output, (NavigatorStarted, Arrived)) and self.report_path:
+            await asyncio.to_thread(write_json_atomic, self.report_path, self.report())
+
+    async def send_heartbeats(self) -> None:
+        period_s = 1.0 / self.config.link.heartbeat_rate_hz
+        while True:
+            self.link.send(codec.heartbeat())
+            await asyncio.sleep(period_s)
+
+    async def watch(self) -> None:
+        """Wall-clock watchdog: says when the vehicle goes silent (the pipeline already refuses
+        to command on a stale heartbeat) and asks for streams again when odometry stays away."""
+        timeout_s = self.config.link.heartbeat_timeout_s
+        silent = False
+        while True:
+            await asyncio.sleep(WATCHDOG_INTERVAL_S)
+            last = self.pipeline.heartbeat_link_s
+            if last is None:
+                continue
+            age_s = self.link.now_us() / 1e6 - last
+            if age_s > timeout_s and not silent:
+                silent = True
+                log.warning("no vehicle heartbeat for %.1f s: commanding stopped", age_s)
+            elif age_s <= timeout_s and silent:
+                silent = False
+                log.info("vehicle heartbeat back")
+
+    async def request_streams(self) -> None:
+        streams = self.config.streams
+        while True:
+            await self.streams_wanted.wait()
+            self.streams_wanted.clear()
+            if self.pipeline.vehicle is None:
+                continue                      # 'vehicle found' will ask again
+            self._odometry_seen.clear()
+            for msg_id, rate_key in STREAMS:
+                await self._request_stream(msg_id, getattr(streams, rate_key))
+            try:
+                async with asyncio.timeout(streams.rerequest_after_s):
+                    await self._odometry_seen.wait()
+            except TimeoutError:
+                log.warning("no odometry %.1f s after asking: asking again",
+                            streams.rerequest_after_s)
+                self.streams_wanted.set()
+
+    async def _request_stream(self, msg_id: int, rate_hz: float) -> None:
+        streams = self.config.streams
+        sysid, compid = self.pipeline.vehicle
+        while not self.acks.empty():
+            self.acks.get_nowait()
+        for _ in range(streams.attempts):
+            self.link.send(codec.set_message_interval(sysid, compid, msg_id, rate_hz))
+            ack = await self._wait_for_ack(streams.ack_timeout_s)
+            if ack is not None and ack.accepted:
+                log.info("message %d at %.1f Hz: accepted", msg_id, rate_hz)
+                return
+            if ack is not None:
+                log.warning("SET_MESSAGE_INTERVAL %d refused (result %d)", msg_id, ack.result)
+                break
+        log.warning("message %d: falling back to REQUEST_DATA_STREAM", msg_id)
+        self.link.send(codec.request_data_stream(sysid, compid, msg_id, rate_hz))
+
+    async def _wait_for_ack(self, timeout_s: float) -> codec.CommandAck | None:
+        try:
+            async with asyncio.timeout(timeout_s):
+                while True:
+                    ack = await self.acks.get()
+                    if codec.is_set_message_interval_ack(ack):
+                        return ack
+        except TimeoutError:
+            return None
+
+    async def flush_tlog(self) -> None:
+        while True:
+            await asyncio.sleep(TLOG_FLUSH_INTERVAL_S)
+            self.tlog.flush()
+
+    async def raise_on_stop(self) -> None:
+        await self.stop.wait()
+        raise ShutdownRequested()
+
+    # ------------------------------------------------------------ results
+    def report(self) -> dict:
+        data = snapshot(self.pipeline)
+        data["link"] = asdict(self.link.statistics())
+        data["config"] = config_to_dict(self.config)
+        return data
+
+
+async def run_service(config: CompanionConfig, url: str, tlog_path: str | Path | None = None,
+                      report_path: str | Path | None = None) -> None:
+    """Run the daemon until SIGINT/SIGTERM. ``config.goal`` must be set."""
+    loop = asyncio.get_running_loop()
+    tlog = None
+    if tlog_path is not None:
+        tlog = TlogWriter(tlog_path)
+        sidecar_config_path(tlog_path).write_text(yaml.safe_dump(config_to_dict(config)))
+    encoder = codec.Encoder(config.link.system_id or PLACEHOLDER_SYSTEM_ID, config.link.component_id)
+    service = None
+    try:
+        async with open_link(url, encoder, config.link.inbox_size,
+                             config.link.reconnect_interval_s) as link:
+            service = Service(config, link, tlog, report_path)
+            for sig in (signal.SIGINT, signal.SIGTERM):
+                loop.add_signal_handler(sig, service.stop.set)
+            log.info("companion up on %s%s: goal north %.1f m, east %.1f m", url,
+                     f" (local {link.local_address[0]}:{link.local_address[1]})"
+                     if link.local_address else "", config.goal.north_m, config.goal.east_m)
+            log.info("effective config: %s", config_to_dict(config))
+            try:
+                async with asyncio.TaskGroup() as tg:
+                    tg.create_task(link.run(), name="receive")
+                    tg.create_task(service.estimate(), name="estimate")
+                    tg.create_task(service.send_heartbeats(), name="heartbeat")
+                    tg.create_task(service.watch(), name="watchdog")
+                    tg.create_task(service.request_streams(), name="streams")
+                    if tlog is not None:
+                        tg.create_task(service.flush_tlog(), name="tlog")
+                    tg.create_task(service.raise_on_stop(), name="stop")
+            except* ShutdownRequested:
+                log.info("clean shutdown: %s", link.statistics())
+    finally:
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            loop.remove_signal_handler(sig)
+        if tlog is not None:
+            tlog.close()
+        if service is not None and report_path is not None:
+            write_json_atomic(report_path, service.report())
