@@ -162,7 +162,7 @@ class AvoidanceConfig:
     safety_distance_m: float
     horizon_s: float
     eta: float
-    strategy: Literal["cone", "apf"] = "cone"
+    strategy: Literal["cone", "union", "apf"] = "cone"
     mission_time_s: float | None = None
     inflation_sigmas: float = 0.0
     approach_decel_mps2: float = 1.0

@@ -25,7 +25,7 @@ def add_parser(sub) -> None:
                         f"({', '.join(sorted(KINDS))})")
     p.add_argument("--runs", type=_positive_int, default=1, help="number of runs (default 1)")
     p.add_argument("--seed", type=int, default=0, help="seed of the first run (default 0)")
-    p.add_argument("--strategy", choices=("cone", "apf"), default=None,
+    p.add_argument("--strategy", choices=("cone", "union", "apf"), default=None,
                    help="guidance strategy (default: the scenario's)")
     p.add_argument("--json", metavar="PATH", help="write {aggregate, runs} as JSON")
     p.add_argument("--plot", metavar="PATH", help="draw the first run as a PNG (paper's Figure 4)")

@@ -58,6 +58,7 @@ class GuidanceCommand:
     urgent_index: int | None = None
     time_to_go_s: float | None = None
     threats: tuple[Threat, ...] = ()
+    side: int = 0          # union guidance: +1 passing with the goal on the left, -1 right, 0 none
 
 
 def inflated_radius(d: float, rel_cov: np.ndarray | None, sigmas: float) -> float:

@@ -14,9 +14,11 @@ import numpy as np
 from companion.core.ekf_slam import AssociationGates, EkfSlam, Observation, SlamNoise, UpdateReport
 from companion.core.geometry import wrap_angle
 from companion.core.guidance import GuidanceCommand, GuidanceParams, guide_apf, guide_cone
+from companion.core.union import UnionParams, guide_union
 
 # An observation frame stamped at most this much after the last odometry is processed at once
 # (the pose is that close); a later one waits for the odometry that covers its time.
+STRATEGIES = ("cone", "union", "apf")
 SAME_TIME_TOLERANCE_S = 1e-3
 MAX_PENDING_FRAMES = 8
 
@@ -35,13 +37,16 @@ class Navigator:
 
     def __init__(self, start_pose: np.ndarray, start_pose_cov: np.ndarray, noise: SlamNoise,
                  gates: AssociationGates, params: GuidanceParams, goal: np.ndarray,
-                 strategy: str = "cone") -> None:
-        if strategy not in ("cone", "apf"):
+                 strategy: str = "cone", union: UnionParams = UnionParams()) -> None:
+        if strategy not in STRATEGIES:
             raise ValueError(f"unknown strategy {strategy!r}")
         self.slam = EkfSlam(start_pose, start_pose_cov, noise, gates)
         self.params = params
         self.goal = np.asarray(goal, dtype=float)
         self.strategy = strategy
+        self.union = union
+        self._last_heading: float | None = None
+        self._side = 0
         self._urgent: int | None = None
         self.t_s: float | None = None          # time of the last odometry the filter has absorbed
         self._yaw_rad: float | None = None
@@ -101,11 +106,16 @@ class Navigator:
         slam = self.slam
         pose = slam.pose
         landmarks = slam.landmarks()
+        rel_covs = slam.relative_covs() if self.params.inflation_sigmas > 0 else None
         if self.strategy == "apf":
             command = guide_apf(pose, self.goal, landmarks, self.params)
+        elif self.strategy == "union":
+            command = guide_union(pose, self.goal, landmarks, rel_covs, self.params, self.union,
+                                  self._last_heading, self._side)
+            self._side = command.side
         else:
-            rel_covs = slam.relative_covs() if self.params.inflation_sigmas > 0 else None
             command = guide_cone(pose, self.goal, landmarks, rel_covs, self.params, t_s)
+        self._last_heading = command.heading_rad
         change = None
         if command.urgent_index != self._urgent:
             self._urgent = command.urgent_index
