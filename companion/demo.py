@@ -1,0 +1,346 @@
+"""``companion demo``: the stub, the companion daemon and a ground station, over loopback.
+
+Three processes, nothing shared but sockets: ``sitl-stub`` (the vehicle and its camera), ``companion
+run`` (the daemon, on the stub's UDP port) and this one, a ground station on the stub's TCP port
+that sets GUIDED and arms. When the companion reports arrival, both children get SIGTERM and the
+flight is scored like ``companion simulate``: truth from the stub's truth log, the estimate from
+the companion's report, aligned on the vehicle's time since boot.
+"""
+from __future__ import annotations
+
+import asyncio
+import dataclasses
+import json
+import logging
+import math
+import signal
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from companion.adapters import codec
+from companion.adapters.mavlink_link import open_link
+from companion.config import CompanionConfig, GoalConfig, Scenario, config_to_dict, load_config
+from companion.core.geometry import wrap_angle
+from companion.errors import CompanionError
+from companion.paths import resolve_config
+from companion.simulation import ARRIVAL_ALLOWANCE_M, aggregate_summaries
+
+log = logging.getLogger(__name__)
+
+GCS_SYSTEM_ID = 255
+READY_TIMEOUT_S = 20.0
+COMMAND_RETRY_S = 0.5
+COMMAND_TIMEOUT_S = 15.0
+STOP_TIMEOUT_S = 5.0
+SETTLE_TIMEOUT_S = 3.0
+POLL_S = 0.1
+
+
+class DemoError(CompanionError):
+    """The demo could not run: a child died, a deadline passed, a command was refused."""
+
+
+@dataclass(frozen=True)
+class DemoFiles:
+    workdir: Path
+    tlog: Path | None
+
+    @property
+    def truth(self) -> Path:
+        return self.workdir / "truth.jsonl"
+
+    @property
+    def report(self) -> Path:
+        return self.workdir / "companion-report.json"
+
+    @property
+    def config(self) -> Path:
+        return self.workdir / "companion.yaml"
+
+
+def demo_config(scenario: Scenario, base_path: str = "config/companion.yaml") -> CompanionConfig:
+    """The companion's settings for a scenario: its estimator, avoidance, goal and limits."""
+    base = load_config(resolve_config(base_path))
+    goal = scenario.world.goal
+    commanding = dataclasses.replace(
+        base.commanding, cruise_speed_mps=scenario.vehicle.speed_mps,
+        max_speed_mps=max(base.commanding.max_speed_mps, scenario.vehicle.speed_mps),
+        max_turn_rate_deg_s=scenario.vehicle.max_turn_rate_deg_s)
+    return dataclasses.replace(base, estimator=scenario.estimator_config(),
+                               avoidance=scenario.avoidance, commanding=commanding,
+                               goal=GoalConfig(goal.north_m, goal.east_m, goal.radius_m))
+
+
+class Child:
+    """A subprocess whose stderr goes to a file, so a crash can be explained."""
+
+    def __init__(self, name: str, proc: asyncio.subprocess.Process, stderr_path: Path) -> None:
+        self.name, self.proc, self.stderr_path = name, proc, stderr_path
+
+    def stderr_tail(self, lines: int = 15) -> str:
+        try:
+            text = self.stderr_path.read_text(errors="replace")
+        except OSError:
+            return ""
+        return "\n".join(text.strip().splitlines()[-lines:])
+
+    def check_alive(self) -> None:
+        if self.proc.returncode is not None:
+            raise DemoError(f"{self.name} exited early with code {self.proc.returncode}:\n"
+                            f"{self.stderr_tail()}")
+
+    async def stop(self) -> int | None:
+        """SIGTERM, then SIGKILL after STOP_TIMEOUT_S. Returns the exit code."""
+        if self.proc.returncode is None:
+            self.proc.send_signal(signal.SIGTERM)
+            try:
+                async with asyncio.timeout(STOP_TIMEOUT_S):
+                    await self.proc.wait()
+            except TimeoutError:
+                log.warning("%s ignored SIGTERM: killing it", self.name)
+                self.proc.kill()
+                await self.proc.wait()
+        return self.proc.returncode
+
+
+async def spawn(name: str, args: list[str], workdir: Path, stdout=None) -> Child:
+    stderr_path = workdir / f"{name}.stderr"
+    with open(stderr_path, "wb") as err:
+        proc = await asyncio.create_subprocess_exec(*args, stdout=stdout, stderr=err,
+                                                    stdin=asyncio.subprocess.DEVNULL)
+    return Child(name, proc, stderr_path)
+
+
+async def wait_for_ready(stub: Child) -> tuple[int, int]:
+    """The stub's READY line -> (tcp port, udp port)."""
+    try:
+        async with asyncio.timeout(READY_TIMEOUT_S):
+            while line := await stub.proc.stdout.readline():
+                text = line.decode(errors="replace").strip()
+                if text.startswith("SITL_STUB READY"):
+                    ports = dict(part.split("=", 1) for part in text.split()[2:])
+                    return int(ports["tcp"].rpartition(":")[2]), int(ports["udp"].rpartition(":")[2])
+    except TimeoutError:
+        raise DemoError(f"sitl-stub not ready after {READY_TIMEOUT_S:.0f} s:\n"
+                        f"{stub.stderr_tail()}") from None
+    await stub.proc.wait()
+    stub.check_alive()
+    raise DemoError("sitl-stub closed its stdout without a READY line")
+
+
+def read_report(path: Path) -> dict | None:
+    try:
+        return json.loads(path.read_text())
+    except (OSError, ValueError):
+        return None
+
+
+async def wait_for(condition, what: str, timeout_s: float, children: list[Child]):
+    """Poll ``condition()`` until it returns something truthy; children must stay alive."""
+    try:
+        async with asyncio.timeout(timeout_s):
+            while True:
+                for child in children:
+                    child.check_alive()
+                if result := condition():
+                    return result
+                await asyncio.sleep(POLL_S)
+    except TimeoutError:
+        raise DemoError(f"timed out after {timeout_s:.0f} s waiting for {what}") from None
+
+
+async def command_until_accepted(link, msg_factory, name: str, children: list[Child]) -> None:
+    """Send a command every COMMAND_RETRY_S until its COMMAND_ACK says accepted."""
+    try:
+        async with asyncio.timeout(COMMAND_TIMEOUT_S):
+            while True:
+                for child in children:
+                    child.check_alive()
+                link.send(msg_factory())
+                try:
+                    async with asyncio.timeout(COMMAND_RETRY_S):
+                        while True:
+                            event = codec.decode((await link.inbox.get()).msg)
+                            if isinstance(event, codec.CommandAck) and codec.is_ack_for(event, name):
+                                if event.accepted:
+                                    return
+                                log.info("%s refused (result %d): retrying", name, event.result)
+                                break
+                except TimeoutError:
+                    pass
+    except TimeoutError:
+        raise DemoError(f"the vehicle did not accept {name} within {COMMAND_TIMEOUT_S:.0f} s") \
+            from None
+
+
+async def ground_station(tcp_port: int, files: DemoFiles, scenario: Scenario, speedup: float,
+                         children: list[Child], config: CompanionConfig) -> dict:
+    """Set GUIDED, arm, and wait for the companion to report arrival; returns its report."""
+    async with open_link(f"tcp:127.0.0.1:{tcp_port}",
+                         codec.Encoder(GCS_SYSTEM_ID, codec.MAV_COMP_ID_MISSIONPLANNER)) as link:
+        async with asyncio.TaskGroup() as tg:
+            receiver = tg.create_task(link.run(), name="gcs-receive")
+            await wait_for(lambda: read_report(files.report), "the companion's estimator",
+                           READY_TIMEOUT_S, children)
+            await command_until_accepted(
+                link, lambda: codec.set_mode(1, 1, config.link.guided_custom_mode), "set_mode",
+                children)
+            await command_until_accepted(link, lambda: codec.arm(1, 1), "arm", children)
+            log.info("GUIDED and armed: flying")
+            flight_s = scenario.mission.max_time_s / speedup + 30.0
+            report = await wait_for(
+                lambda: (r := read_report(files.report)) and r.get("arrived") and r,
+                "the vehicle to arrive", flight_s, children)
+            await wait_until_settled(files.truth)
+            receiver.cancel()
+    return report
+
+
+async def wait_until_settled(truth_path: Path) -> None:
+    """Give the vehicle a moment to stop (the truth log's speed), at most SETTLE_TIMEOUT_S."""
+    try:
+        async with asyncio.timeout(SETTLE_TIMEOUT_S):
+            while True:
+                records = read_truth(truth_path, tail_only=True)
+                if records and records[-1]["speed_mps"] < 0.05:
+                    return
+                await asyncio.sleep(POLL_S)
+    except TimeoutError:
+        log.info("vehicle still moving %.0f s after arrival; scoring anyway", SETTLE_TIMEOUT_S)
+
+
+def read_truth(path: Path, tail_only: bool = False) -> list[dict]:
+    try:
+        lines = path.read_text().splitlines()
+    except OSError:
+        return []
+    if tail_only:
+        lines = lines[-2:]
+    records = []
+    for line in lines:
+        try:
+            records.append(json.loads(line))
+        except ValueError:
+            continue              # the line being written
+    return records
+
+
+async def run_demo(scenario_path: Path, scenario: Scenario, files: DemoFiles, speedup: float,
+                   seed: int, drop_rate: float) -> tuple[dict, dict, list[dict]]:
+    """Fly the scenario; returns (the companion's report, its config, the truth records)."""
+    config = demo_config(scenario)
+    files.config.write_text(yaml.safe_dump(config_to_dict(config)))
+    children: list[Child] = []
+    try:
+        stub_args = [sys.executable, "-m", "sitl_stub", "--scenario", str(scenario_path),
+                     "--tcp", "127.0.0.1:0", "--udp", "127.0.0.1:0", "--speedup", str(speedup),
+                     "--seed", str(seed), "--truth-log", str(files.truth)]
+        if drop_rate:
+            stub_args += ["--drop-rate", str(drop_rate)]
+        stub = await spawn("sitl-stub", stub_args, files.workdir, stdout=asyncio.subprocess.PIPE)
+        children.append(stub)
+        tcp_port, udp_port = await wait_for_ready(stub)
+        companion_args = [sys.executable, "-m", "companion", "-v", "run",
+                          "--connect", f"udpout:127.0.0.1:{udp_port}",
+                          "--config", str(files.config), "--report", str(files.report)]
+        if files.tlog:
+            companion_args += ["--tlog", str(files.tlog)]
+        children.append(await spawn("companion", companion_args, files.workdir))
+        report = await ground_station(tcp_port, files, scenario, speedup, children, config)
+    finally:
+        for child in reversed(children):
+            code = await asyncio.shield(child.stop())
+            if code not in (0, -signal.SIGTERM):
+                log.warning("%s exited with %s", child.name, code)
+    final = read_report(files.report) or report
+    return final, config_to_dict(config), read_truth(files.truth)
+
+
+# ------------------------------------------------------------------ scoring
+def score(report: dict, truth: list[dict], scenario: Scenario, seed: int) -> tuple[dict, dict]:
+    """The per-run summary of ``companion simulate`` and the arrays to plot."""
+    t_true = np.array([r["t_s"] for r in truth])
+    true_pose = np.array([[r["north_m"], r["east_m"], r["yaw_rad"]] for r in truth])
+    armed = [r["t_s"] for r in truth if r["armed"]]
+    t0 = armed[0] if armed else t_true[0]
+    t_arrival = report.get("arrival_t_s") or float(t_true[-1])
+    track = report["track"]
+    t_est = np.array(track["t_s"])
+    est_pose = np.column_stack([track["north_m"], track["east_m"], track["yaw_rad"]])
+    est_cov = np.array(track["pose_cov"]).reshape(-1, 3, 3)
+    flying = (t_est >= t0) & (t_est <= t_arrival + 1e-6)
+    t_est, est_pose, est_cov = t_est[flying], est_pose[flying], est_cov[flying]
+    true_at_est = np.column_stack([np.interp(t_est, t_true, true_pose[:, k]) for k in range(2)])
+    yaw_at_est = np.interp(t_est, t_true, np.unwrap(true_pose[:, 2]))
+    errors = np.hypot(*(est_pose[:, :2] - true_at_est).T)
+    nees = []
+    for est, true_ne, true_yaw, cov in zip(est_pose, true_at_est, yaw_at_est, est_cov):
+        err = np.array([true_ne[0] - est[0], true_ne[1] - est[1], wrap_angle(true_yaw - est[2])])
+        nees.append(float(err @ np.linalg.solve(cov, err)))
+
+    after_arm = [r for r in truth if r["t_s"] >= t0]
+    clearance, collided = math.inf, False
+    for r in after_arm:
+        for ob in r["obstacles"]:
+            gap = math.hypot(r["north_m"] - ob["north_m"], r["east_m"] - ob["east_m"])
+            clearance = min(clearance, gap)
+            collided = collided or gap < ob["radius_m"]
+    flight = np.array([[r["north_m"], r["east_m"]] for r in after_arm if r["t_s"] <= t_arrival])
+    path_m = float(np.sum(np.hypot(*np.diff(flight, axis=0).T))) if len(flight) > 1 else 0.0
+    goal = scenario.world.goal
+    at_arrival = np.array([np.interp(t_arrival, t_true, true_pose[:, k]) for k in range(2)])
+    final_goal_distance = float(math.hypot(at_arrival[0] - goal.north_m, at_arrival[1] - goal.east_m))
+    obstacles_end = truth[-1]["obstacles"] if truth else []
+    summary = {
+        "seed": seed,
+        "reached_goal": bool(report.get("arrived"))
+        and final_goal_distance <= goal.radius_m + ARRIVAL_ALLOWANCE_M,
+        "time_s": round(t_arrival - t0, 6),
+        "min_clearance_m": clearance if math.isfinite(clearance) else None,
+        "collided": collided,
+        "final_goal_distance_m": final_goal_distance,
+        "final_position_error_m": float(errors[-1]) if len(errors) else None,
+        "max_position_error_m": float(errors.max()) if len(errors) else None,
+        "landmark_errors_m": landmark_errors(report["landmarks"], obstacles_end),
+        "urgent_events": sum(1 for e in report["urgency_events"]
+                             if e["state"] == "urgent" and t0 <= e["t_s"] <= t_arrival),
+        "path_length_m": path_m,
+    }
+    landmarks = report["landmarks"]
+    plot = {
+        "true_ne": true_pose[t_true >= t0][:, :2], "est_ne": est_pose[:, :2],
+        "obstacles_ne": np.array([[o["north_m"], o["east_m"]] for o in obstacles_end]).reshape(-1, 2),
+        "obstacle_radii": np.array([o["radius_m"] for o in obstacles_end]),
+        "landmarks_ne": np.array([[m["north_m"], m["east_m"]] for m in landmarks]).reshape(-1, 2),
+        "landmark_covs": np.array([m["cov_m2"] for m in landmarks]).reshape(-1, 2, 2),
+        "nees": nees,
+    }
+    return summary, plot
+
+
+def landmark_errors(landmarks: list[dict], obstacles: list[dict]) -> list[float]:
+    """Error of each mapped obstacle: by id when ids are known, else the nearest landmark < 5 m."""
+    by_id = {m["id"]: m for m in landmarks if m["id"] is not None}
+    anonymous = np.array([[m["north_m"], m["east_m"]] for m in landmarks if m["id"] is None])
+    errors = []
+    for ob in obstacles:
+        centre = np.array([ob["north_m"], ob["east_m"]])
+        if ob["id"] in by_id:
+            m = by_id[ob["id"]]
+            errors.append(float(np.hypot(m["north_m"] - centre[0], m["east_m"] - centre[1])))
+        elif len(anonymous):
+            gap = float(np.hypot(*(anonymous - centre).T).min())
+            if gap < 5.0:
+                errors.append(gap)
+    return errors
+
+
+def demo_result(summary: dict, nees: list[float], scenario: Scenario) -> dict:
+    agg = aggregate_summaries([summary], [nees], scenario.avoidance.safety_distance_m)
+    agg["strategy"] = scenario.avoidance.strategy
+    agg["scenario"] = scenario.name
+    return {"aggregate": agg, "runs": [summary]}
