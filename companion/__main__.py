@@ -13,7 +13,7 @@ import sys
 from companion.errors import CompanionError
 
 # Each module has add_parser(subparsers) and run(args) -> int.
-COMMANDS = ("simulate", "run", "demo", "replay")
+COMMANDS = ("simulate", "campaign", "run", "demo", "replay")
 
 
 def main(argv: list[str] | None = None) -> int:
