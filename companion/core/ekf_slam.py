@@ -311,6 +311,34 @@ class EkfSlam:
             self._id_to_index[obstacle_id] = index
         return UpdateReport("added", index, None, None, obstacle_id)
 
+    def copy(self) -> "EkfSlam":
+        """An independent copy (for the navigator's rollback when a young landmark moves)."""
+        clone = object.__new__(EkfSlam)
+        clone.__dict__.update(self.__dict__)
+        clone._mean_buf = self._mean_buf.copy()
+        clone._cov_buf = self._cov_buf.copy()
+        clone._id_to_index = dict(self._id_to_index)
+        clone._index_to_id = list(self._index_to_id)
+        return clone
+
+    def remove_landmark(self, index: int) -> None:
+        """Marginalise a landmark out of the state (a Gaussian's marginal: drop its rows/columns).
+
+        Later landmarks shift down one index; their ids follow them.
+        """
+        if not 0 <= index < self.landmark_count:
+            raise IndexError(f"no landmark {index}")
+        s0 = POSE_DIM + LANDMARK_DIM * index
+        dim = self._dim
+        keep = np.r_[0:s0, s0 + LANDMARK_DIM:dim]
+        self._mean_buf[:dim - LANDMARK_DIM] = self._mean_buf[keep]
+        self._cov_buf[:dim - LANDMARK_DIM, :dim - LANDMARK_DIM] = self._cov_buf[np.ix_(keep, keep)]
+        self._dim = dim - LANDMARK_DIM
+        removed = self._index_to_id.pop(index)
+        if removed is not None:
+            self._id_to_index.pop(removed, None)
+        self._id_to_index = {oid: i for i, oid in enumerate(self._index_to_id) if oid is not None}
+
     def _reserve(self, dim: int) -> None:
         cap = self._cov_buf.shape[0]
         if dim <= cap:

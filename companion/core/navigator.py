@@ -5,15 +5,18 @@ it (the in-process truth world, MAVLink, a tlog) cannot be told apart from here.
 """
 from __future__ import annotations
 
+import copy
 import math
 from collections import deque
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from companion.core.ekf_slam import AssociationGates, EkfSlam, Observation, SlamNoise, UpdateReport
 from companion.core.geometry import wrap_angle
 from companion.core.guidance import GuidanceCommand, GuidanceParams, guide_apf, guide_cone
+from companion.core.geometry import move, place
+from companion.core.movers import MoverParams, MoverTracker, apparent_velocity, world_measurement
 from companion.core.union import UnionParams, guide_union
 
 # An observation frame stamped at most this much after the last odometry is processed at once
@@ -32,12 +35,22 @@ class UrgencyChange:
     time_to_go_s: float | None
 
 
+@dataclass
+class _Young:
+    """A landmark on probation: the state before it was added, and its dead-reckoned points."""
+    snapshot: tuple
+    log_index: int
+    times: list = field(default_factory=list)
+    points: list = field(default_factory=list)
+
+
 class Navigator:
     """EKF-SLAM plus guidance. ``strategy``: 'cone' (the paper) or 'apf' (Khatib)."""
 
     def __init__(self, start_pose: np.ndarray, start_pose_cov: np.ndarray, noise: SlamNoise,
                  gates: AssociationGates, params: GuidanceParams, goal: np.ndarray,
-                 strategy: str = "cone", union: UnionParams = UnionParams()) -> None:
+                 strategy: str = "cone", union: UnionParams = UnionParams(),
+                 mover_params: MoverParams = MoverParams()) -> None:
         if strategy not in STRATEGIES:
             raise ValueError(f"unknown strategy {strategy!r}")
         self.slam = EkfSlam(start_pose, start_pose_cov, noise, gates)
@@ -47,7 +60,16 @@ class Navigator:
         self.union = union
         self._last_heading: float | None = None
         self._side = 0
-        self._urgent: int | None = None
+        self._urgent: tuple | None = None
+        self.clock_s = 0.0                     # the filter's time: odometry time, or summed dt
+        self.movers = MoverTracker(mover_params)
+        self.mover_params = mover_params
+        self._strikes: dict[int, int] = {}
+        self._dr_pose = np.array(start_pose, dtype=float)   # odometry only, never corrected
+        self._young: dict[int, _Young] = {}
+        self._log: list[tuple] = []
+        self._to_track: set[int] = set()
+        self.rollbacks = 0
         self.t_s: float | None = None          # time of the last odometry the filter has absorbed
         self._yaw_rad: float | None = None
         self._pending: deque[tuple[float, list[Observation]]] = deque()
@@ -66,7 +88,7 @@ class Navigator:
             self._reject("odometry_not_finite")
             return []
         if self.t_s is None:
-            self.t_s, self._yaw_rad = t_s, yaw_rad
+            self.t_s, self._yaw_rad, self.clock_s = t_s, yaw_rad, t_s
             return self._release()
         dt = t_s - self.t_s
         if dt <= 0.0:
@@ -97,28 +119,175 @@ class Navigator:
 
     def predict(self, speed_mps: float, heading_change_rad: float, dt_s: float) -> None:
         self.slam.predict(speed_mps, heading_change_rad, dt_s)
+        self.clock_s += max(dt_s, 0.0)
+        self._dr_pose = move(self._dr_pose, speed_mps, heading_change_rad, dt_s)
+        if self._young:
+            self._log.append(("predict", speed_mps, heading_change_rad, dt_s))
 
     def observe(self, observations: list[Observation]) -> list[UpdateReport]:
-        return self.slam.update_frame(observations)
+        """One camera frame: static landmarks update the SLAM state, movers only their tracks.
+
+        A landmark seen for the first time is on probation for ``probation_s``: its world points,
+        placed from the dead-reckoned pose, are watched for motion. If it moves, the filter is
+        rolled back to just before the frame that added it and the frames since are replayed with
+        it tracked as a mover, so a mover never leaves a mark on the map or the pose. Static
+        worlds never roll back and behave exactly as without this machinery.
+        """
+        known = set(self.slam.landmark_ids()) | set(self.movers.by_obstacle_id) | self._to_track
+        fresh = {o.obstacle_id for o in observations
+                 if o.obstacle_id is not None and o.obstacle_id not in known}
+        snapshot = self._snapshot() if fresh else None
+        if fresh or self._young:
+            self._log.append(("frame", observations))
+        used: set[int] = set()
+        reports = []
+        for obs in observations:
+            report = self._observe_one(obs, used)
+            if report.action in ("updated", "added") and report.landmark_index is not None:
+                used.add(report.landmark_index)
+            if report.action == "added" and obs.obstacle_id in fresh:
+                self._young[obs.obstacle_id] = _Young(snapshot, len(self._log) - 1, [], [])
+            young = self._young.get(obs.obstacle_id)
+            if young is not None and report.action in ("updated", "added", "outlier"):
+                young.times.append(self.clock_s)
+                young.points.append(place(self._dr_pose, np.array([obs.range_m, obs.bearing_rad])))
+            reports.append(report)
+        self.movers.prune(self.clock_s)
+        self._judge_young()
+        return reports
+
+    def _observe_one(self, obs: Observation, used: set[int]) -> UpdateReport:
+        slam, oid = self.slam, obs.obstacle_id
+        if oid is not None and oid in self._to_track:
+            self._to_track.discard(oid)
+            point, cov = self._world_point(obs)
+            self.movers.create(self.clock_s, point, cov, oid)
+            return UpdateReport("mover_detected", None, None, None, oid)
+        if oid is not None and oid in self.movers.by_obstacle_id:
+            return self._update_mover(self.movers.by_obstacle_id[oid], obs)
+        if oid is None and len(self.movers):
+            z = np.array([obs.range_m, obs.bearing_rad])
+            static_nis = slam.nis_all(z)[0] if slam.landmark_count else np.array([np.inf])
+            if static_nis.min() > slam.gates.accept_nis:
+                point, cov = self._world_point(obs)
+                track = self.movers.nearest(self.clock_s, point, cov)
+                if track is not None:
+                    return self._update_mover(track, obs)
+        report = slam.update(obs, exclude=used)
+        if oid is None:
+            return report
+        if report.action != "outlier":
+            self._strikes.pop(oid, None)
+            return report
+        self._strikes[oid] = self._strikes.get(oid, 0) + 1
+        if self._strikes[oid] < self.mover_params.strikes_to_mover or oid in self._young:
+            return report                    # a young landmark is judged by _judge_young
+        # An old landmark refused twice in a row by the static map has started to move. Its
+        # refused observations never touched map or pose: take it out of the map, track it.
+        del self._strikes[oid]
+        index = report.landmark_index
+        slam.remove_landmark(index)
+        shifted = {i - 1 if i > index else i for i in used if i != index}
+        used.clear()
+        used.update(shifted)
+        point, cov = self._world_point(obs)
+        self.movers.create(self.clock_s, point, cov, oid)
+        return UpdateReport("mover_detected", None, report.innovation, report.nis, oid)
+
+    # ------------------------------------------------------- probation
+    def _snapshot(self) -> tuple:
+        return (self.slam.copy(), copy.deepcopy(self.movers), dict(self._strikes), self.clock_s,
+                self._dr_pose.copy(), set(self._to_track))
+
+    def _judge_young(self) -> None:
+        params = self.mover_params
+        noise = self.slam.noise
+        point_sigma = math.hypot(noise.range_sigma_m, 40.0 * noise.bearing_sigma_rad)
+        for oid, young in list(self._young.items()):
+            if self.clock_s - young.times[0] > params.probation_s:
+                del self._young[oid]             # watched long enough: static
+                continue
+            moving = self._strikes.get(oid, 0) >= params.strikes_to_mover
+            if not moving and young.times[-1] - young.times[0] >= params.min_span_s:
+                velocity, sigma = apparent_velocity(np.array(young.times), np.array(young.points),
+                                                    point_sigma, noise.speed_sigma_mps,
+                                                    noise.reference_dt_s)
+                speed = float(np.hypot(*velocity))
+                moving = speed > params.speed_threshold_mps and speed > params.speed_sigmas * sigma
+            if moving:
+                self._roll_back(oid)
+                return                           # the replay judged everyone afresh
+        if not self._young:
+            self._log.clear()
+
+    def _roll_back(self, oid: int) -> None:
+        """Restore the state from before ``oid`` was added and replay since, tracking it."""
+        young = self._young[oid]
+        slam, movers, strikes, clock, dr_pose, to_track = young.snapshot
+        self.slam, self.movers, self._strikes = slam.copy(), copy.deepcopy(movers), dict(strikes)
+        self.clock_s, self._dr_pose, self._to_track = clock, dr_pose.copy(), set(to_track) | {oid}
+        entries = self._log[young.log_index:]
+        del self._log[young.log_index:]
+        for other, entry in list(self._young.items()):
+            if entry.log_index >= young.log_index:
+                del self._young[other]
+            else:
+                keep = [i for i, t in enumerate(entry.times) if t <= clock]
+                entry.times[:] = [entry.times[i] for i in keep]
+                entry.points[:] = [entry.points[i] for i in keep]
+        self.rollbacks += 1
+        for kind, *args in entries:
+            if kind == "predict":
+                self.predict(*args)
+            else:
+                self.observe(*args)
+
+    def _world_point(self, obs: Observation) -> tuple[np.ndarray, np.ndarray]:
+        return world_measurement(self.slam.pose, self.slam.pose_cov,
+                                 np.array([obs.range_m, obs.bearing_rad]),
+                                 self.slam.noise.measurement_cov())
+
+    def _update_mover(self, track_id: int, obs: Observation) -> UpdateReport:
+        point, cov = self._world_point(obs)
+        nis = self.movers.update(track_id, self.clock_s, point, cov)
+        return UpdateReport("mover", None, None, nis, obs.obstacle_id)
+
+    def obstacles(self) -> tuple[np.ndarray, np.ndarray | None, np.ndarray, list]:
+        """Everything guidance must avoid: positions (n,2), velocities (n,2) or None when all
+        are static, relative-position covariances (n,2,2), and a stable key per obstacle."""
+        slam = self.slam
+        landmarks = slam.landmarks()
+        rel_covs = slam.relative_covs()
+        keys: list = [("landmark", oid if oid is not None else i)
+                      for i, oid in enumerate(slam.landmark_ids())]
+        movers = self.movers.states(self.clock_s)
+        if not movers:
+            return landmarks, None, rel_covs, keys
+        pose_cov = slam.pose_cov[:2, :2]
+        positions = np.vstack([landmarks, [m.position_ne_m for m in movers]])
+        velocities = np.vstack([np.zeros_like(landmarks), [m.velocity_ne_mps for m in movers]])
+        covs = np.concatenate([rel_covs, [m.position_cov + pose_cov for m in movers]])
+        keys += [("mover", m.track_id) for m in movers]
+        return positions, velocities, covs, keys
 
     def decide(self, t_s: float) -> tuple[GuidanceCommand, UrgencyChange | None]:
         """Guidance on the current estimate, and the urgency change it implies, if any."""
-        slam = self.slam
-        pose = slam.pose
-        landmarks = slam.landmarks()
-        rel_covs = slam.relative_covs() if self.params.inflation_sigmas > 0 else None
+        pose = self.slam.pose
+        obstacles, velocities, covs, keys = self.obstacles()
+        rel_covs = covs if self.params.inflation_sigmas > 0 else None
         if self.strategy == "apf":
-            command = guide_apf(pose, self.goal, landmarks, self.params)
+            command = guide_apf(pose, self.goal, obstacles, self.params)
         elif self.strategy == "union":
-            command = guide_union(pose, self.goal, landmarks, rel_covs, self.params, self.union,
-                                  self._last_heading, self._side)
+            command = guide_union(pose, self.goal, obstacles, rel_covs, self.params, self.union,
+                                  self._last_heading, self._side, velocities)
             self._side = command.side
         else:
-            command = guide_cone(pose, self.goal, landmarks, rel_covs, self.params, t_s)
+            command = guide_cone(pose, self.goal, obstacles, rel_covs, self.params, t_s, velocities)
         self._last_heading = command.heading_rad
+        key = None if command.urgent_index is None else keys[command.urgent_index]
         change = None
-        if command.urgent_index != self._urgent:
-            self._urgent = command.urgent_index
-            oid = None if command.urgent_index is None else slam.landmark_ids()[command.urgent_index]
+        if key != self._urgent:
+            self._urgent = key
+            oid = key[1] if key is not None and key[0] == "landmark" else None
             change = UrgencyChange(t_s, command.urgent_index, oid, command.time_to_go_s)
         return command, change

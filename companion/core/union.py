@@ -56,18 +56,34 @@ def turn_speed_factor(heading_rad: float, desired_rad: float, fov_rad: float) ->
 
 
 def blocking(candidates: np.ndarray, position: np.ndarray, obstacles: np.ndarray,
-             radii: np.ndarray, eta: float, reach_m: float) -> np.ndarray:
-    """(K, n) True where candidate heading k enters obstacle n's relevant (scaled) cone."""
+             radii: np.ndarray, eta: float, reach_m: float, speed_mps: float = 1.0,
+             velocities: np.ndarray | None = None, lookahead_s: float = 0.0) -> np.ndarray:
+    """(K, n) True where candidate heading k enters obstacle n's relevant (scaled) cone.
+
+    Static obstacles count when their circle is nearer than ``reach_m``. With ``velocities``
+    (n,2), the cone is tested on the velocity relative to each obstacle, speed * u_k - w_n, and a
+    moving obstacle counts when its circle is nearer than (speed + |w|) * lookahead.
+    """
     if len(obstacles) == 0:
         return np.zeros((len(candidates), 0), dtype=bool)
     rel = obstacles - position
     dist = np.hypot(rel[:, 0], rel[:, 1])
-    bearing = np.arctan2(rel[:, 1], rel[:, 0])
-    off = np.abs(wrap_angles(candidates[:, None] - bearing[None, :]))          # (K, n)
     inside = dist <= radii
     half = np.minimum(eta * np.arcsin(np.clip(radii / np.maximum(dist, 1e-9), 0.0, 1.0)),
                       0.5 * math.pi)
+    bearing = np.arctan2(rel[:, 1], rel[:, 0])
+    off = np.abs(wrap_angles(candidates[:, None] - bearing[None, :]))          # (K, n)
     relevant = (dist - radii) < reach_m
+    if velocities is not None and np.any(velocities):
+        moving = np.any(velocities != 0.0, axis=1)
+        headings = np.stack([np.cos(candidates), np.sin(candidates)], axis=1)   # (K, 2)
+        rel_vel = speed_mps * headings[:, None, :] - velocities[None, :, :]     # (K, n, 2)
+        rel_off = np.abs(wrap_angles(np.arctan2(rel_vel[..., 1], rel_vel[..., 0])
+                                     - bearing[None, :]))
+        still = np.hypot(rel_vel[..., 0], rel_vel[..., 1]) < 1e-9
+        off = np.where(moving[None, :], np.where(still, math.pi, rel_off), off)
+        mover_reach = (speed_mps + np.hypot(velocities[:, 0], velocities[:, 1])) * lookahead_s
+        relevant = np.where(moving, (dist - radii) < mover_reach, relevant)
     cone_hit = (off < half[None, :]) & (relevant & ~inside)[None, :]
     closing = (off < 0.5 * math.pi) & inside[None, :]
     return cone_hit | closing
@@ -75,7 +91,8 @@ def blocking(candidates: np.ndarray, position: np.ndarray, obstacles: np.ndarray
 
 def guide_union(pose: np.ndarray, goal: np.ndarray, obstacles: np.ndarray,
                 rel_covs: np.ndarray | None, params: GuidanceParams, union: UnionParams,
-                previous_heading_rad: float | None, side: int = 0) -> GuidanceCommand:
+                previous_heading_rad: float | None, side: int = 0,
+                velocities: np.ndarray | None = None) -> GuidanceCommand:
     """Pick a speed and heading outside every relevant cone; see the module docstring."""
     position = pose[:2]
     to_goal = goal - position
@@ -97,7 +114,8 @@ def guide_union(pose: np.ndarray, goal: np.ndarray, obstacles: np.ndarray,
         speed = cruise * fraction
         # obstacles beyond the goal do not matter: the vehicle stops before them
         blocks = blocking(candidates, position, obstacles, radii, params.eta,
-                          min(speed * union.lookahead_s, goal_distance))
+                          min(speed * union.lookahead_s, goal_distance), speed, velocities,
+                          union.lookahead_s)
         blocked = blocks.any(axis=1)
         if blocked.all():
             continue

@@ -1,0 +1,149 @@
+"""Moving obstacles: constant-velocity tracks, kept out of the static SLAM map.
+
+A landmark whose observations disagree grossly with the static map twice in a row (NIS beyond the
+outlier gate, so the update is refused and neither map nor pose moves) is declared a mover: it is
+marginalised out of the SLAM state and tracked here, in the world frame given the SLAM pose, by a
+constant-velocity Kalman filter (filterpy's KalmanFilter: a 4-state filter is small, and its
+textbook form is all it needs). Tracks are predicted forward between observations and deleted
+after ``coast_s`` without one.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from filterpy.kalman import KalmanFilter
+
+from companion.core.geometry import place, place_jacobians
+
+
+@dataclass(frozen=True)
+class MoverParams:
+    strikes_to_mover: int = 2            # consecutive outliers that demote a landmark to a mover
+    accel_sigma_mps2: float = 0.1        # white-acceleration process noise of the CV model
+    initial_speed_sigma_mps: float = 2.0
+    coast_s: float = 30.0                # delete a track unseen for this long (predicted meanwhile)
+    gate_nis: float = 13.8               # chi-square 2 dof, 99.9%: association of id-less reports
+    probation_s: float = 6.0             # a new landmark is watched this long for motion
+    min_span_s: float = 1.0              # motion is judged over at least this much history
+    speed_threshold_mps: float = 0.15    # slower than this counts as static
+    speed_sigmas: float = 5.0            # and the speed must exceed this many standard errors
+
+
+@dataclass(frozen=True)
+class MoverState:
+    """A track's estimate at some time: world position (2,), velocity (2,), position cov (2,2)."""
+    track_id: int
+    obstacle_id: int | None
+    position_ne_m: np.ndarray
+    velocity_ne_mps: np.ndarray
+    position_cov: np.ndarray
+
+
+def world_measurement(pose: np.ndarray, pose_cov: np.ndarray, z: np.ndarray,
+                      meas_cov: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A range-bearing observation as a world point (2,) and its covariance (2,2)."""
+    jac_pose, jac_z = place_jacobians(pose, z)
+    return place(pose, z), jac_pose @ pose_cov @ jac_pose.T + jac_z @ meas_cov @ jac_z.T
+
+
+class MoverTracker:
+    """All mover tracks. Times are the navigator's clock, seconds."""
+
+    def __init__(self, params: MoverParams = MoverParams()) -> None:
+        self.params = params
+        self._tracks: dict[int, tuple[KalmanFilter, float, int | None]] = {}
+        self._next_id = 1
+        self.by_obstacle_id: dict[int, int] = {}
+
+    def __len__(self) -> int:
+        return len(self._tracks)
+
+    def create(self, t_s: float, position: np.ndarray, position_cov: np.ndarray,
+               obstacle_id: int | None) -> int:
+        kf = KalmanFilter(dim_x=4, dim_z=2)
+        kf.x = np.array([position[0], position[1], 0.0, 0.0])
+        kf.P = np.zeros((4, 4))
+        kf.P[:2, :2] = position_cov
+        kf.P[2:, 2:] = np.eye(2) * self.params.initial_speed_sigma_mps ** 2
+        kf.H = np.hstack([np.eye(2), np.zeros((2, 2))])
+        track_id = self._next_id
+        self._next_id += 1
+        self._tracks[track_id] = (kf, t_s, obstacle_id)
+        if obstacle_id is not None:
+            self.by_obstacle_id[obstacle_id] = track_id
+        return track_id
+
+    def _predict(self, track_id: int, t_s: float) -> KalmanFilter:
+        kf, last_t, oid = self._tracks[track_id]
+        dt = t_s - last_t
+        if dt > 0.0:
+            kf.F = np.array([[1, 0, dt, 0], [0, 1, 0, dt], [0, 0, 1, 0], [0, 0, 0, 1]], dtype=float)
+            q = self.params.accel_sigma_mps2 ** 2
+            g = np.array([[0.5 * dt * dt, 0], [0, 0.5 * dt * dt], [dt, 0], [0, dt]])
+            kf.predict(Q=q * g @ g.T)
+            self._tracks[track_id] = (kf, t_s, oid)
+        return kf
+
+    def update(self, track_id: int, t_s: float, position: np.ndarray, position_cov: np.ndarray) -> float:
+        """Update a track with a world point; returns the NIS of the point against the track."""
+        kf = self._predict(track_id, t_s)
+        innovation = position - kf.x[:2]
+        s = kf.P[:2, :2] + position_cov
+        nis = float(innovation @ np.linalg.solve(s, innovation))
+        kf.update(position, R=position_cov)
+        kf.P = 0.5 * (kf.P + kf.P.T)
+        return nis
+
+    def nearest(self, t_s: float, position: np.ndarray, position_cov: np.ndarray) -> int | None:
+        """The track that gates an id-less world point, if any (smallest NIS under the gate)."""
+        best, best_nis = None, self.params.gate_nis
+        for track_id, (_, _, oid) in self._tracks.items():
+            state = self.state(track_id, t_s)
+            innovation = position - state.position_ne_m
+            nis = float(innovation @ np.linalg.solve(state.position_cov + position_cov, innovation))
+            if nis < best_nis:
+                best, best_nis = track_id, nis
+        return best
+
+    def state(self, track_id: int, t_s: float) -> MoverState:
+        """The track predicted to ``t_s`` without changing it."""
+        kf, last_t, oid = self._tracks[track_id]
+        dt = max(t_s - last_t, 0.0)
+        position = kf.x[:2] + dt * kf.x[2:]
+        q = self.params.accel_sigma_mps2 ** 2
+        cov = (kf.P[:2, :2] + dt * (kf.P[:2, 2:] + kf.P[2:, :2]) + dt * dt * kf.P[2:, 2:]
+               + q * dt ** 4 / 4.0 * np.eye(2))
+        return MoverState(track_id, oid, position, kf.x[2:].copy(), cov)
+
+    def states(self, t_s: float) -> list[MoverState]:
+        return [self.state(track_id, t_s) for track_id in self._tracks]
+
+    def prune(self, t_s: float) -> list[int]:
+        """Delete tracks unseen for coast_s; returns their ids."""
+        stale = [tid for tid, (_, last_t, _) in self._tracks.items()
+                 if t_s - last_t > self.params.coast_s]
+        for tid in stale:
+            _, _, oid = self._tracks.pop(tid)
+            if oid is not None and self.by_obstacle_id.get(oid) == tid:
+                del self.by_obstacle_id[oid]
+        return stale
+
+
+def apparent_velocity(times_s: np.ndarray, points_ne_m: np.ndarray, point_sigma_m: float,
+                      odometry_speed_sigma_mps: float, odometry_dt_s: float
+                      ) -> tuple[np.ndarray, float]:
+    """Least-squares velocity (2,) of an obstacle's world points, and its standard error (m/s).
+
+    The points are placed from the dead-reckoned pose (odometry only), so a landmark that drags
+    the SLAM pose along cannot hide its motion. The error model: independent point noise, plus
+    the dead-reckoning random walk, whose slope over a span T has variance sigma_v^2 dt / T.
+    """
+    span = float(times_s[-1] - times_s[0])
+    centred = times_s - times_s.mean()
+    denom = float(centred @ centred)
+    velocity = centred @ (points_ne_m - points_ne_m.mean(axis=0)) / denom
+    sigma = math.sqrt(point_sigma_m ** 2 / denom
+                      + odometry_speed_sigma_mps ** 2 * odometry_dt_s / max(span, 1e-9))
+    return velocity, sigma

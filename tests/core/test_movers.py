@@ -1,0 +1,120 @@
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+from companion.config import Obstacle, load_scenario
+from companion.core.ekf_slam import EkfSlam, Observation
+from companion.core.geometry import observe
+from companion.core.guidance import GuidanceParams
+from companion.core.movers import MoverParams, MoverTracker, apparent_velocity
+from companion.core.union import UnionParams, blocking, guide_union
+from companion.simulation import make_navigator, run_once
+from tests.core.test_ekf_slam import NOISE
+
+
+def test_remove_landmark_is_the_marginal():
+    slam = EkfSlam(np.zeros(3), np.eye(3) * 0.01, NOISE, capacity=1)
+    for i, z in enumerate([(10, 0.1), (12, -0.3), (20, 0.5)]):
+        slam.update(Observation(*z, obstacle_id=100 + i))
+        slam.predict(2.0, 0.01, 0.1)
+    mean, cov = slam.mean.copy(), slam.cov.copy()
+    slam.remove_landmark(1)
+    keep = [0, 1, 2, 3, 4, 7, 8]
+    assert np.array_equal(slam.mean, mean[keep])
+    assert np.array_equal(slam.cov, cov[np.ix_(keep, keep)])
+    assert slam.landmark_ids() == [100, 102]
+    report = slam.update(Observation(*observe(slam.pose, slam.landmarks()[1]), obstacle_id=102))
+    assert report.action == "updated" and report.landmark_index == 1
+
+
+def test_constant_velocity_track_learns_the_velocity():
+    rng = np.random.default_rng(2)
+    tracker = MoverTracker(MoverParams())
+    start, velocity = np.array([50.0, 10.0]), np.array([1.2, -0.7])
+    cov = np.eye(2) * 0.05 ** 2
+    tid = tracker.create(0.0, start + rng.normal(0, 0.05, 2), cov, obstacle_id=9)
+    for k in range(1, 40):
+        t = 0.2 * k
+        tracker.update(tid, t, start + velocity * t + rng.normal(0, 0.05, 2), cov)
+    state = tracker.state(tid, 8.0)
+    assert np.allclose(state.velocity_ne_mps, velocity, atol=0.1)
+    later = tracker.state(tid, 18.0)                       # predicted 10 s ahead
+    assert np.allclose(later.position_ne_m, start + velocity * 18.0, atol=1.5)
+    assert tracker.prune(8.0 + MoverParams().coast_s + 0.1) == [tid]
+    assert 9 not in tracker.by_obstacle_id
+
+
+def test_apparent_velocity_separates_static_from_slow_movers():
+    rng = np.random.default_rng(4)
+    t = np.arange(0.0, 4.2, 0.2)           # the slowest movers (0.3 m/s) need about 4 s
+    static = np.array([30.0, 5.0]) + rng.normal(0, 0.1, (len(t), 2))
+    v, sigma = apparent_velocity(t, static, 0.1, 0.3, 0.1)
+    assert np.hypot(*v) < 5 * sigma
+    moving = np.array([30.0, 5.0]) + np.outer(t, [0.0, 0.3]) + rng.normal(0, 0.1, (len(t), 2))
+    v, sigma = apparent_velocity(t, moving, 0.1, 0.3, 0.1)
+    assert np.hypot(*v) > 5 * sigma and v[1] == pytest.approx(0.3, abs=0.1)
+
+
+def test_relative_velocity_cone_blocks_a_crossing_mover():
+    # An obstacle 30 m ahead and 20 m to the left, crossing to the right at 3 m/s: flying straight
+    # at 5 m/s meets it. Its static cone does not cover heading 0; the relative one does.
+    position, obstacle = np.zeros(2), np.array([[30.0, -20.0]])
+    heading0 = np.array([0.0])
+    static = blocking(heading0, position, obstacle, np.array([5.0]), 1.0, 60.0)
+    moving = blocking(heading0, position, obstacle, np.array([5.0]), 1.0, 60.0, 5.0,
+                      np.array([[0.0, 3.33]]), 10.0)
+    assert not static[0, 0] and moving[0, 0]
+    params = GuidanceParams(5.0, 5.0, 4.0, 1.25, 2.0)
+    command = guide_union(np.zeros(3), np.array([200.0, 0.0]), obstacle, None, params,
+                          UnionParams(lookahead_s=10.0), None, 0, np.array([[0.0, 3.33]]))
+    assert command.mode == "avoid"
+
+
+def world_with_a_mover(mover_velocity):
+    base = load_scenario("config/scenarios/paper.yaml")
+    obstacles = (Obstacle(1, 60.0, 5.0, 2.0),
+                 Obstacle(2, 110.0, -25.0, 2.0, *mover_velocity),
+                 Obstacle(3, 120.0, 20.0, 2.0))
+    return dataclasses.replace(base, world=dataclasses.replace(base.world, obstacles=obstacles))
+
+
+def test_mover_is_tracked_not_mapped_and_flight_stays_safe():
+    scenario = world_with_a_mover((0.0, 0.5))
+    outcome = run_once(scenario, seed=3)
+    assert outcome.summary["reached_goal"] and not outcome.summary["collided"]
+    assert outcome.summary["min_clearance_m"] >= 9.5
+    assert outcome.summary["final_position_error_m"] < 2.0
+
+
+def test_navigator_rolls_back_a_young_mover_out_of_the_map():
+    from companion.truth import TruthWorld
+    scenario = world_with_a_mover((0.0, 0.5))
+    truth = TruthWorld(scenario, np.random.default_rng(1))
+    nav = make_navigator(scenario)
+    for step in range(1, 250):
+        odo = truth.step(5.0, 0.0)
+        nav.predict(odo.speed_mps, odo.heading_change_rad, 0.1)
+        if step % 2 == 0:
+            nav.observe(truth.observe())
+    assert 2 in nav.movers.by_obstacle_id
+    assert 2 not in nav.slam.landmark_ids() and {1, 3} <= set(nav.slam.landmark_ids())
+    assert nav.rollbacks >= 1
+    state = nav.movers.state(nav.movers.by_obstacle_id[2], nav.clock_s)
+    assert np.allclose(state.velocity_ne_mps, [0.0, 0.5], atol=0.15)
+    assert np.hypot(*(nav.slam.pose[:2] - truth.pose[:2])) < 1.5
+
+
+def test_static_worlds_behave_exactly_as_without_mover_handling(monkeypatch):
+    scenario = load_scenario("config/scenarios/paper.yaml")
+    with_probation = [run_once(scenario, seed).summary for seed in range(3)]
+    import companion.simulation as simulation
+    original = simulation.Navigator
+
+    def without(*args, **kwargs):
+        kwargs["mover_params"] = MoverParams(probation_s=-1.0, strikes_to_mover=10 ** 9)
+        return original(*args, **kwargs)
+    monkeypatch.setattr(simulation, "Navigator", without)
+    plain = [run_once(scenario, seed).summary for seed in range(3)]
+    assert with_probation == plain
