@@ -1,4 +1,4 @@
-"""Campaigns: many seeded ``simulate`` runs (and tlog replays) spread over a Dask cluster.
+"""Campaigns: many seeded ``simulate`` runs, or many tlog replays, spread over a Dask cluster.
 
 The work is cut into chunks of consecutive run indices; a chunk is one Dask task. Run i of a row
 flies seed S+i (and, for random worlds, world S+i), exactly as ``companion simulate`` does, so a
@@ -15,21 +15,22 @@ import dataclasses
 import logging
 import math
 import os
+import glob
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
 from companion.config import AvoidanceConfig, Scenario
 from companion.config_loader import FieldError
+from companion.core.navigator import STRATEGIES
 from companion.errors import CompanionError
 from companion.simulation import aggregate_summaries, run_once
 from companion.worlds import random_world
 
 log = logging.getLogger(__name__)
-
-STRATEGIES = ("cone", "apf")
 # About this many tasks per worker: enough to balance runs of uneven length (long legs, detours)
 # across workers, few enough that scheduling (a few ms per task) stays negligible.
 TASKS_PER_WORKER = 16
@@ -228,3 +229,129 @@ def run_rows(client, batches: Sequence[Batch], first_seed: int, runs: int,
     values = list(values) if values is not None else [None] * len(batches)
     return [Row(value, batch, [r for part in rows for r in part])
             for value, batch, rows in zip(values, batches, parts)]
+
+
+# ------------------------------------------------------------------ fleet replay
+FLIGHT_COLUMNS = ("file", "log_duration_s", "flight_time_s", "urgent_events",
+                  "closest_estimated_approach_m", "max_position_sigma_m", "arrived", "landmarks",
+                  "messages", "setpoints", "setpoints_mismatched", "damaged", "error", "notes")
+
+
+def find_tlogs(patterns: Sequence[str]) -> list[Path]:
+    """Every tlog named by ``patterns`` (a file, a folder searched recursively, or a glob), sorted."""
+    found: set[Path] = set()
+    for pattern in patterns:
+        path = Path(pattern)
+        if path.is_dir():
+            found.update(p for p in path.rglob("*.tlog") if p.is_file())
+        elif path.is_file():
+            found.add(path)
+        else:
+            found.update(Path(p) for p in glob.glob(pattern, recursive=True) if Path(p).is_file())
+    return sorted(found)
+
+
+def flight_config_path(tlog: Path, default: str | Path) -> Path:
+    """As ``companion replay`` chooses: FILE.config.yaml written beside the tlog, else ``default``."""
+    from companion.service import sidecar_config_path
+    sidecar = sidecar_config_path(tlog)
+    return sidecar if sidecar.exists() else Path(default)
+
+
+def summarise_flight(tlog: str | Path, config_path: str | Path) -> dict:
+    """Replay one tlog with ``companion replay``'s engine and reduce it to one table row.
+
+    closest_estimated_approach_m: the smallest distance from the estimated track to a landmark
+    of the final estimated map. max_position_sigma_m: the largest 1-sigma position uncertainty
+    along the track (square root of the largest eigenvalue of the 2x2 position covariance).
+    A file or sidecar config that cannot be read gives a row with ``error`` set, not a failure.
+    """
+    from companion.config import load_config
+    from companion.replay import comparison, replay_tlog
+    row = dict.fromkeys(FLIGHT_COLUMNS)
+    row["file"] = str(tlog)
+    try:
+        result = replay_tlog(tlog, load_config(config_path))
+    except (CompanionError, OSError) as exc:
+        row["error"] = str(exc)
+        return row
+    pipeline = result.pipeline
+    track = np.array(pipeline.track, dtype=float).reshape(-1, 13)   # t_s, n, e, yaw, 3x3 cov
+    landmarks = (pipeline.navigator.slam.landmarks() if pipeline.navigator is not None
+                 else np.zeros((0, 2)))
+    row.update(
+        log_duration_s=(result.last_us - result.first_us) / 1e6 if result.messages else 0.0,
+        flight_time_s=float(track[-1, 0] - track[0, 0]) if len(track) else None,
+        urgent_events=sum(1 for r in pipeline.urgency if r.state == "urgent"),
+        closest_estimated_approach_m=closest_approach_m(track[:, 1:3], landmarks),
+        max_position_sigma_m=max_position_sigma_m(track[:, 4:].reshape(-1, 3, 3)),
+        arrived=pipeline.arrival_t_s is not None, landmarks=len(landmarks),
+        messages=result.messages, setpoints=len(result.setpoints),
+        setpoints_mismatched=(comparison(result)["setpoints_mismatched"] if result.recorded_keys
+                              else None),
+        damaged=bool(result.stats.damaged), notes="; ".join(result.notes))
+    return row
+
+
+def closest_approach_m(track_ne: np.ndarray, landmarks_ne: np.ndarray) -> float | None:
+    """Smallest distance between any track point (k, 2) and any landmark (m, 2); None if either
+    is empty."""
+    if not len(track_ne) or not len(landmarks_ne):
+        return None
+    gaps = np.hypot(*(track_ne[:, None, :] - landmarks_ne[None, :, :]).transpose(2, 0, 1))
+    return float(gaps.min())
+
+
+def max_position_sigma_m(pose_covs: np.ndarray) -> float | None:
+    """Largest sqrt(eigenvalue) of the position block of the pose covariances (k, 3, 3)."""
+    if not len(pose_covs):
+        return None
+    block = pose_covs[:, :2, :2]
+    values = np.linalg.eigvalsh(0.5 * (block + block.transpose(0, 2, 1)))
+    return float(np.sqrt(np.clip(values.max(), 0.0, None)))
+
+
+def summarise_flights(entries: Sequence[tuple[str, str]]) -> list[dict]:
+    """One Dask task: (tlog path, config path) pairs to rows, in order."""
+    return [summarise_flight(tlog, config) for tlog, config in entries]
+
+
+def replay_fleet(client, tlogs: Sequence[Path], default_config: str | Path,
+                 on_done: Callable[[int], None] | None = None) -> list[dict]:
+    """Per-flight rows for ``tlogs``, in the order given. Workers read the files themselves, so
+    on a remote cluster the paths must be visible to them (a shared or identical filesystem)."""
+    distributed = require_dask()
+    entries = [(str(p.resolve()), str(flight_config_path(p, default_config).resolve()))
+               for p in tlogs]
+    size = runs_per_task(len(entries), worker_threads(client))
+    futures = {client.submit(summarise_flights, entries[i:i + size], pure=False): i
+               for i in range(0, len(entries), size)}
+    rows: list[dict | None] = [None] * len(entries)
+    try:
+        for future in distributed.as_completed(futures):
+            start = futures[future]
+            part = future.result()
+            rows[start:start + len(part)] = part
+            if on_done is not None:
+                on_done(len(part))
+    except BaseException:
+        client.cancel(list(futures))
+        raise
+    for row, tlog in zip(rows, tlogs):
+        row["file"] = str(tlog)                    # as the user named it, not resolved
+    return rows
+
+
+def fleet_totals(rows: Sequence[dict]) -> dict:
+    """The fleet at a glance: flights, failures, total urgent events, worst approach and sigma."""
+    ok = [r for r in rows if r["error"] is None]
+    approaches = [r["closest_estimated_approach_m"] for r in ok if r["closest_estimated_approach_m"] is not None]
+    sigmas = [r["max_position_sigma_m"] for r in ok if r["max_position_sigma_m"] is not None]
+    return {
+        "flights": len(rows), "failed": len(rows) - len(ok),
+        "damaged": sum(1 for r in ok if r["damaged"]),
+        "log_hours": sum(r["log_duration_s"] for r in ok) / 3600.0,
+        "urgent_events": sum(r["urgent_events"] for r in ok),
+        "closest_estimated_approach_m": min(approaches) if approaches else None,
+        "max_position_sigma_m": max(sigmas) if sigmas else None,
+    }

@@ -6,11 +6,14 @@ without the cluster extra. Without it this command exits 2 with the install hint
 from __future__ import annotations
 
 import argparse
+import csv
 import sys
 import time
 
+from companion.commands.replay import DEFAULT_CONFIG as REPLAY_CONFIG
 from companion.commands.simulate import DEFAULT_SCENARIO, _positive_int
 from companion.config import load_scenario
+from companion.core.navigator import STRATEGIES
 from companion.errors import CompanionError
 from companion.report import _fmt, print_summary, write_json
 from companion.worlds import KINDS
@@ -34,7 +37,7 @@ def add_parser(sub) -> None:
     p.add_argument("--runs", type=_positive_int, default=None, help="number of runs (required "
                                                                      "unless --replay)")
     p.add_argument("--seed", type=int, default=0, help="seed of the first run (default 0)")
-    p.add_argument("--strategy", choices=("cone", "apf"), default=None,
+    p.add_argument("--strategy", choices=STRATEGIES, default=None,
                    help="guidance strategy (default: the scenario's)")
     p.add_argument("--sweep", metavar="NAME=V1,V2,...",
                    help="one row per value of an avoidance parameter (eta, horizon_s, "
@@ -46,6 +49,8 @@ def add_parser(sub) -> None:
                         "companion installed)")
     p.add_argument("--json", metavar="PATH", help="write the report as JSON")
     p.add_argument("--csv", metavar="PATH", help="with --replay: the per-flight table as CSV")
+    p.add_argument("--config", help="with --replay: companion settings for tlogs that have no "
+                                    f"FILE.config.yaml beside them (default {REPLAY_CONFIG})")
     p.add_argument("--plot", metavar="PATH", help="histograms of clearance and final position "
                                                   "error (PNG)")
     p.set_defaults(handler=run)
@@ -58,10 +63,9 @@ def run(args: argparse.Namespace) -> int:
         raise CompanionError("campaign: --workers sizes the local cluster; it cannot be used with "
                              "--scheduler")
     if args.replay:
-        from companion.commands.campaign_replay import run_replay
-        return run_replay(args)
-    if args.csv:
-        raise CompanionError("campaign: --csv is for --replay (the per-flight table)")
+        return run_replay(args, campaign)
+    if args.csv or args.config:
+        raise CompanionError("campaign: --csv and --config are for --replay")
     if args.runs is None:
         raise CompanionError("campaign: give --runs N")
     if args.scenario is None and args.random_worlds is None:
@@ -102,10 +106,60 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _progress(total: int):
+def run_replay(args: argparse.Namespace, campaign) -> int:
+    """``--replay``: every tlog through ``companion replay``'s engine, one row per flight."""
+    from companion.paths import resolve_config
+    for flag in ("runs", "scenario", "sweep", "strategy", "plot"):
+        if getattr(args, flag) is not None:
+            raise CompanionError(f"campaign: --{flag} does not apply to --replay")
+    tlogs = campaign.find_tlogs(args.replay)
+    if not tlogs:
+        raise CompanionError(f"campaign: no tlog found in {' '.join(args.replay)}")
+    default_config = resolve_config(args.config or REPLAY_CONFIG)
+    if not default_config.is_file():
+        raise CompanionError(f"campaign: {default_config}: no such config file")
+    started = time.perf_counter()
+    with campaign.open_client(args.workers, args.scheduler) as client:
+        workers = campaign.worker_threads(client)
+        with _progress(len(tlogs), unit="tlog") as bar:
+            rows = campaign.replay_fleet(client, tlogs, default_config, bar.update)
+    wall_s = time.perf_counter() - started
+    totals = campaign.fleet_totals(rows)
+    info = {"cluster": args.scheduler or "local", "workers": workers, "wall_s": round(wall_s, 3),
+            "default_config": str(default_config)}
+    if args.json:
+        write_json(args.json, {"fleet": totals, "flights": rows, "campaign": info})
+    if args.csv:
+        write_flights_csv(args.csv, rows)
+    print_fleet(totals, rows, sys.stdout)
+    print(f"campaign: {len(rows)} tlogs on {workers} workers ({info['cluster']}) in {wall_s:.1f} s")
+    return 0
+
+
+def write_flights_csv(path: str, rows: list[dict]) -> None:
+    from companion.campaign import FLIGHT_COLUMNS
+    with open(path, "w", newline="") as out:
+        writer = csv.DictWriter(out, fieldnames=FLIGHT_COLUMNS)
+        writer.writeheader()
+        for row in rows:
+            writer.writerow({k: "" if row[k] is None else row[k] for k in FLIGHT_COLUMNS})
+
+
+def print_fleet(totals: dict, rows: list[dict], out) -> None:
+    out.write(f"flights: {totals['flights']}   failed: {totals['failed']}   damaged: "
+              f"{totals['damaged']}   log: {totals['log_hours']:.2f} h   urgent events: "
+              f"{totals['urgent_events']}\n"
+              f"closest estimated approach: {_fmt(totals['closest_estimated_approach_m'], ' m')}   "
+              f"largest position sigma: {_fmt(totals['max_position_sigma_m'], ' m')}\n")
+    for row in rows:
+        if row["error"] is not None:
+            out.write(f"  {row['file']}: {row['error']}\n")
+
+
+def _progress(total: int, unit: str = "run"):
     """A tqdm bar on a terminal; elsewhere the same object, disabled."""
     from tqdm import tqdm
-    return tqdm(total=total, desc="campaign", unit="run",
+    return tqdm(total=total, desc="campaign", unit=unit,
                 disable=total < 2 or not sys.stderr.isatty())
 
 
