@@ -13,9 +13,10 @@ heartbeat is fresh enough to command it.
 Rules (docs/messages.md repeats them):
 - The vehicle is the first heartbeat from an autopilot (or the pinned ids). Obstacle reports are
   accepted from the vehicle's system, autopilot or camera component; everything else is ignored.
-- Odometry: one sample per LOCAL_POSITION_NED, speed = hypot(vx, vy), paired with the latest
-  ATTITUDE whose time_boot_ms is <= the position's, its yaw carried forward by its yaw rate over
-  the gap (at most ``max_attitude_age_s``, else the sample is skipped).
+- Odometry: one sample per LOCAL_POSITION_NED, speed = hypot(vx, vy), paired with the ATTITUDE
+  of the same time_boot_ms (the position waits for it until the next position arrives), else
+  with the latest earlier ATTITUDE, its yaw carried forward by its yaw rate over the gap (at
+  most ``max_attitude_age_s``, else the sample is skipped).
 - A decision (guidance, urgency, maybe a setpoint) follows each odometry sample once a setpoint
   period of message time has passed, and each obstacle report the filter absorbed.
 - Setpoints only while the last vehicle heartbeat says armed and GUIDED and is fresh.
@@ -96,12 +97,14 @@ class Pipeline:
         self._allowed = False
         self._latest_t_s: float | None = None
         self._attitudes: deque[codec.Attitude] = deque(maxlen=ATTITUDE_HISTORY)
+        self._held_position: codec.LocalPosition | None = None
         self._ap_yaw_rad: float | None = None       # autopilot yaw at the last odometry sample
         self._last_decision_t_s: float | None = None
         self._last_pose_out_t_s: float | None = None
         self._last_camera_t_s: float | None = None
         self._camera_alive_unstamped = False
         self._safe_reason: str | None = None
+        self._safe_logged_commanding = False
         self.arrival_t_s: float | None = None
         self.started_t_s: float | None = None
         self.urgency: list[UrgencyRecord] = []
@@ -123,9 +126,13 @@ class Pipeline:
         elif isinstance(event, codec.Attitude) and self._is_vehicle(event):
             if self._timed(event.t_s, out):
                 self._attitudes.append(event)
+                held = self._held_position
+                if held is not None and event.t_s >= held.t_s - TIME_EPS_S:
+                    self._held_position = None
+                    self._on_position(t_link_s, held, out)
         elif isinstance(event, codec.LocalPosition) and self._is_vehicle(event):
             if self._timed(event.t_s, out):
-                self._on_position(t_link_s, event, out)
+                self._pair_position(t_link_s, event, out)
         elif isinstance(event, codec.ObstacleFrame):
             self._on_obstacles(t_link_s, event, out)
         return out
@@ -210,6 +217,7 @@ class Pipeline:
             self.navigator = None
             self.reset_counter += 1
             self._attitudes.clear()
+            self._held_position = None
             self._last_decision_t_s = self._last_pose_out_t_s = None
             self._last_camera_t_s = None
             self._latest_t_s = t_s
@@ -232,6 +240,18 @@ class Pipeline:
                 rate = att.yaw_rate_rad_s if math.isfinite(att.yaw_rate_rad_s) else 0.0
                 return wrap_angle(att.yaw_rad + rate * max(gap, 0.0))
         return None
+
+    def _pair_position(self, t_link_s: float, lpn: codec.LocalPosition, out: list[Output]) -> None:
+        """Use the ATTITUDE of the same time_boot_ms: if it has not come yet, hold the position
+        until it does, or until the next position (then the older attitude, carried forward)."""
+        held, self._held_position = self._held_position, None
+        if held is not None:
+            self._on_position(t_link_s, held, out)
+        latest = self._attitudes[-1] if self._attitudes else None
+        if latest is not None and latest.t_s >= lpn.t_s - TIME_EPS_S:
+            self._on_position(t_link_s, lpn, out)
+        else:
+            self._held_position = lpn
 
     def _on_position(self, t_link_s: float, lpn: codec.LocalPosition, out: list[Output]) -> None:
         yaw = self._attitude_at(lpn.t_s)
@@ -337,9 +357,11 @@ class Pipeline:
             self._safe(t_link_s, t_s, "non-finite setpoint", out)
             return
         if self._safe_reason is not None:
-            log.warning("safe action ended (%s): guidance resumed", self._safe_reason)
-            out.append(codec.Notice(codec.SEVERITY_INFO, "companion: guidance resumed"))
-            self._safe_reason = None
+            log.log(logging.WARNING if self._safe_logged_commanding else logging.INFO,
+                    "safe action ended (%s): guidance resumed", self._safe_reason)
+            if self._safe_logged_commanding:
+                out.append(codec.Notice(codec.SEVERITY_INFO, "companion: guidance resumed"))
+            self._safe_reason, self._safe_logged_commanding = None, False
         self._send(t_link_s, setpoint, out)
 
     def _setpoint(self, t_s: float, speed_mps: float, heading_rad: float,
@@ -359,11 +381,17 @@ class Pipeline:
         return codec.VelocitySetpoint(*self.vehicle, t_s, vn, ve, heading_ap, mode)
 
     def _safe(self, t_link_s: float, t_s: float, reason: str, out: list[Output]) -> None:
-        if reason != self._safe_reason:
-            log.error("%s: safe action %s", reason, self.config.failsafe.safe_action)
-            out.append(codec.Notice(codec.SEVERITY_ERROR, f"companion: {reason}, "
-                                    f"{self.config.failsafe.safe_action}"))
-            self._safe_reason = reason
+        # ERROR (and a STATUSTEXT) once per reason while commanding; before that (on the ground,
+        # camera not up yet) it is only worth an INFO line.
+        commanding = self.commanding_allowed(t_link_s)
+        if (reason, commanding) != (self._safe_reason, self._safe_logged_commanding):
+            action = self.config.failsafe.safe_action
+            if commanding:
+                log.error("%s: safe action %s", reason, action)
+                out.append(codec.Notice(codec.SEVERITY_ERROR, f"companion: {reason}, {action}"))
+            else:
+                log.info("%s (not commanding): safe action %s when commanding", reason, action)
+            self._safe_reason, self._safe_logged_commanding = reason, commanding
         self._count(f"safe_action: {reason}")
         if self.config.failsafe.safe_action == "hold":
             yaw = self._ap_yaw_rad if self._ap_yaw_rad is not None else 0.0

@@ -220,3 +220,20 @@ def test_speed_is_clamped_to_the_configured_limit():
     sp = p._setpoint(feed.t_s, 50.0, 0.0, "goal")
     assert math.hypot(sp.vel_north_mps, sp.vel_east_mps) == pytest.approx(8.0)
     assert p._setpoint(feed.t_s, math.nan, 0.0, "goal") is None
+
+
+def test_position_waits_for_the_attitude_of_its_own_time():
+    """The stub sends LOCAL_POSITION_NED before the ATTITUDE of the same time_boot_ms."""
+    p = Pipeline(config(require_camera=False), GOAL, record_track=True)
+    p.handle(0.0, hb())
+    p.handle(0.0, codec.Attitude(1, 1, 1.0, 0.0, 0.0))
+    p.handle(0.0, codec.LocalPosition(1, 1, 1.0, 20.0, 0.0, 5.0, 0.0))
+    assert p.handle(0.0, codec.LocalPosition(1, 1, 1.1, 20.5, 0.0, 5.0, 0.0)) == []   # held
+    assert len(p.track) == 1
+    p.handle(0.0, codec.Attitude(1, 1, 1.1, 0.2, 9.0))            # its own attitude: yaw 0.2
+    assert len(p.track) == 2 and p.track[-1][3] == pytest.approx(0.2, abs=1e-3)
+    # no attitude of its own before the next position: the older one, carried by its rate
+    p.handle(0.0, codec.LocalPosition(1, 1, 1.2, 21.0, 0.0, 5.0, 0.0))
+    p.handle(0.0, codec.LocalPosition(1, 1, 1.3, 21.5, 0.0, 5.0, 0.0))
+    assert len(p.track) == 3 and p.track[-1][0] == pytest.approx(1.2)
+    assert p.track[-1][3] == pytest.approx(0.2 + 0.9, abs=1e-2)
