@@ -85,8 +85,10 @@ def test_replay_of_a_corrupted_tlog_skips_the_damage(demo, tmp_path):
                      "--json", str(tmp_path / "r.json"))
     assert done.returncode == 0, done.stderr
     report = json.loads((tmp_path / "r.json").read_text())
-    assert report["tlog"]["bytes_skipped"] > 0 and report["messages"] > 1000
-    assert any("corrupt" in n for n in report["notes"])
+    damage = (report["tlog"], report["notes"])
+    assert report["tlog"]["bytes_skipped"] + report["tlog"]["bad_packets"] > 0, damage
+    assert report["messages"] > 1000, damage
+    assert any("corrupt" in n or "unreadable" in n for n in report["notes"]), damage
     assert "note:" in done.stdout
 
 
@@ -126,3 +128,12 @@ def test_replay_of_a_ground_station_log_with_two_vehicles_gives_a_pose_only_trac
     done = companion("replay", str(path), "--sysid", "2", "--json", str(tmp_path / "r2.json"))
     report = json.loads((tmp_path / "r2.json").read_text())
     assert report["vehicle"] == [2, 1] and report["track"]["t_s"] == []
+
+
+def test_demo_survives_twenty_percent_datagram_loss(tmp_path):
+    done = companion("demo", "--speedup", "20", "--drop-rate", "0.2", "--seed", "3",
+                     "--json", str(tmp_path / "d.json"))
+    assert done.returncode == 0, done.stdout + done.stderr
+    (run,) = json.loads((tmp_path / "d.json").read_text())["runs"]
+    assert run["reached_goal"] and not run["collided"] and run["min_clearance_m"] >= 9.5
+    assert run["final_position_error_m"] < 2.0
