@@ -5,7 +5,15 @@ turns errors into exit codes.
 """
 from __future__ import annotations
 
-import argparse
+import os
+
+# One BLAS thread, set before numpy loads. The matrices here are small (a few hundred rows): a
+# threaded BLAS gains nothing on them, and on a busy 2-core companion computer its spinning
+# threads made a 200-landmark update 180x slower (22 ms instead of 0.12 ms, benchmarks/run.py).
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
+import argparse  # noqa: E402
 import importlib
 import logging
 import sys

@@ -202,8 +202,8 @@ class EstimatorConfig:
     accept_nis: float = AssociationGates().accept_nis
     new_landmark_nis: float = AssociationGates().new_landmark_nis
     outlier_nis: float = AssociationGates().outlier_nis
-    initial_position_sigma_m: float = 0.01
-    initial_yaw_sigma_deg: float = 0.01
+    initial_position_sigma_m: float = 0.001
+    initial_yaw_sigma_deg: float = 0.001
 
     def __post_init__(self) -> None:
         for key in ("speed_sigma_mps", "heading_change_sigma_deg", "range_sigma_m",

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from typing import Iterable, Sequence
 
 import numpy as np
+from scipy.linalg.blas import dgemm
 from scipy.stats import chi2
 
 from companion.core.geometry import (move, move_jacobians, place_jacobians, wrap_angle,
@@ -88,17 +89,16 @@ class EkfSlam:
     """
 
     def __init__(self, pose: Sequence[float], pose_cov: np.ndarray, noise: SlamNoise,
-                 gates: AssociationGates = AssociationGates(), capacity: int = 16) -> None:
+                 gates: AssociationGates = AssociationGates(), capacity: int = 0) -> None:
         self.noise = noise
         self.gates = gates
         self._meas_cov = noise.measurement_cov()
-        cap = POSE_DIM + LANDMARK_DIM * max(capacity, 1)
-        self._mean_buf = np.zeros(cap)
-        self._cov_buf = np.zeros((cap, cap))
-        self._dim = POSE_DIM
-        self._mean_buf[:3] = pose
+        # Exact-size, C-contiguous arrays: the update writes the covariance in place through
+        # BLAS, which needs contiguous memory. ``capacity`` is accepted for compatibility only.
+        self._mean_buf = np.array(pose, dtype=float)
         self._mean_buf[2] = wrap_angle(self._mean_buf[2])
-        self._cov_buf[:3, :3] = pose_cov
+        self._cov_buf = np.array(pose_cov, dtype=float)
+        self._dim = POSE_DIM
         self._id_to_index: dict[int, int] = {}
         self._index_to_id: list[int | None] = []
 
@@ -190,17 +190,26 @@ class EkfSlam:
             reports.append(report)
         return reports
 
-    def update(self, obs: Observation, exclude: set[int] | None = None) -> UpdateReport:
-        """Associate one observation and update, or add a landmark, or drop it."""
+    def update(self, obs: Observation, exclude: set[int] | None = None,
+               landmark_only: bool = False) -> UpdateReport:
+        """Associate one observation and update, or add a landmark, or drop it.
+
+        ``landmark_only``: a Schmidt ("consider") update that corrects only the observed
+        landmark and leaves the vehicle and every other landmark as they are, with the
+        covariance kept exact for that suboptimal gain (Joseph form). The navigator uses it
+        while a new landmark is on probation: if it turns out to move, it never touched the pose.
+        """
         z = np.array([obs.range_m, obs.bearing_rad])
         if obs.obstacle_id is not None:
             index = self._id_to_index.get(obs.obstacle_id)
             if index is None:
                 return self._add(z, obs.obstacle_id)
-            nis, innovation = self.nis_against(z, index)
+            parts = self._innovation(z, index)
+            innovation, s = parts[1], parts[2]
+            nis = float(innovation @ np.linalg.solve(s, innovation))
             if nis > self.gates.outlier_nis:
                 return UpdateReport("outlier", index, tuple(innovation), nis, obs.obstacle_id)
-            return self._correct(z, index, obs.obstacle_id)
+            return self._correct(parts, index, obs.obstacle_id, landmark_only)
         if self.landmark_count == 0:
             return self._add(z, None)
         nis_all, _ = self.nis_all(z)
@@ -209,7 +218,7 @@ class EkfSlam:
         best = int(np.argmin(nis_all))
         best_nis = float(nis_all[best])
         if best_nis <= self.gates.accept_nis:
-            return self._correct(z, best, None)
+            return self._correct(self._innovation(z, best), best, None, landmark_only)
         if best_nis > self.gates.new_landmark_nis:
             return self._add(z, None)
         return UpdateReport("ambiguous", best, None, best_nis, None)
@@ -268,31 +277,54 @@ class EkfSlam:
         s = jac @ p_ht[cols] + self._meas_cov
         return cols, innovation, s, p_ht
 
-    def _correct(self, z: np.ndarray, index: int, obstacle_id: int | None) -> UpdateReport:
+    def _correct(self, parts: tuple, index: int, obstacle_id: int | None,
+                 landmark_only: bool = False) -> UpdateReport:
         """Kalman update of one landmark; Joseph form, applied in place as one rank-4 correction.
 
         Joseph: P <- (I-KH) P (I-KH)^T + K R K^T = P - K PHt^T - PHt K^T + K S K^T
                   = P - (K B^T + B K^T) with B = PHt - K S / 2,
         which stays symmetric positive semi-definite to rounding even when K is slightly off.
         """
-        _, innovation, s, p_ht = self._innovation(z, index)
+        cols, innovation, s, p_ht = parts
         s_inv = np.linalg.inv(s)
-        gain = p_ht @ s_inv                                        # K, (N, 2)
-        dim = self._dim
-        self._mean_buf[:dim] += gain @ innovation
-        self._mean_buf[2] = wrap_angle(self._mean_buf[2])
-        half = p_ht - 0.5 * gain @ s                               # B, (N, 2)
-        left = np.concatenate((gain, half), axis=1)                # (N, 4)
-        right = np.concatenate((half, gain), axis=1)
-        self._cov_buf[:dim, :dim] -= left @ right.T
         nis = float(innovation @ s_inv @ innovation)
+        if landmark_only:
+            self._correct_landmark_only(index, innovation, s, s_inv, p_ht)
+        else:
+            gain = p_ht @ s_inv                                    # K, (N, 2)
+            self._mean_buf += gain @ innovation
+            self._mean_buf[2] = wrap_angle(self._mean_buf[2])
+            half = p_ht - 0.5 * gain @ s                           # B, (N, 2)
+            left = np.concatenate((gain, half), axis=1)            # (N, 4)
+            right = np.concatenate((half, gain), axis=1)
+            # P -= left right^T in one BLAS pass, no (N, N) temporary: P is symmetric, so its
+            # transpose is a Fortran-ordered view of the same memory, which dgemm updates in
+            # place (P^T <- P^T - right left^T). numpy's ``P -= left @ right.T`` takes two passes.
+            dgemm(-1.0, right, left, beta=1.0, c=self._cov_buf.T, trans_b=1, overwrite_c=1)
         return UpdateReport("updated", index, (float(innovation[0]), float(innovation[1])),
                             nis, obstacle_id)
 
+    def _correct_landmark_only(self, index: int, innovation: np.ndarray, s: np.ndarray,
+                               s_inv: np.ndarray, p_ht: np.ndarray) -> None:
+        """Schmidt update: gain zero outside the landmark's two rows. O(n).
+
+        With K = [0; K_m; 0], Joseph gives P'_mj = P_mj - K_m (HP)_j off the landmark's block and
+        P'_mm = P_mm - K_m (HP)_m - (PH^T)_m K_m^T + K_m S K_m^T; every other entry is unchanged.
+        """
+        m = slice(POSE_DIM + LANDMARK_DIM * index, POSE_DIM + LANDMARK_DIM * index + 2)
+        cov = self._cov_buf
+        gain_m = p_ht[m] @ s_inv                                   # (2, 2)
+        self._mean_buf[m] += gain_m @ innovation
+        rows = cov[m, :] - gain_m @ p_ht.T                         # (2, N)
+        block = cov[m, m] - gain_m @ p_ht[m].T - p_ht[m] @ gain_m.T + gain_m @ s @ gain_m.T
+        rows[:, m] = 0.5 * (block + block.T)
+        cov[m, :] = rows
+        cov[:, m] = rows.T
+
     def _add(self, z: np.ndarray, obstacle_id: int | None) -> UpdateReport:
         """Initialise a landmark from one observation, with its full cross-covariance."""
-        self._reserve(self._dim + LANDMARK_DIM)
         dim = self._dim
+        self._grow(dim + LANDMARK_DIM)
         pose = self._mean_buf[:3]
         direction = pose[2] + z[1]
         position = (pose[0] + z[0] * math.cos(direction), pose[1] + z[0] * math.sin(direction))
@@ -331,23 +363,21 @@ class EkfSlam:
         s0 = POSE_DIM + LANDMARK_DIM * index
         dim = self._dim
         keep = np.r_[0:s0, s0 + LANDMARK_DIM:dim]
-        self._mean_buf[:dim - LANDMARK_DIM] = self._mean_buf[keep]
-        self._cov_buf[:dim - LANDMARK_DIM, :dim - LANDMARK_DIM] = self._cov_buf[np.ix_(keep, keep)]
+        self._mean_buf = self._mean_buf[keep]
+        self._cov_buf = np.ascontiguousarray(self._cov_buf[np.ix_(keep, keep)])
         self._dim = dim - LANDMARK_DIM
         removed = self._index_to_id.pop(index)
         if removed is not None:
             self._id_to_index.pop(removed, None)
         self._id_to_index = {oid: i for i, oid in enumerate(self._index_to_id) if oid is not None}
 
-    def _reserve(self, dim: int) -> None:
-        cap = self._cov_buf.shape[0]
-        if dim <= cap:
-            return
-        new_cap = max(dim, 2 * cap - POSE_DIM)
-        mean = np.zeros(new_cap)
-        cov = np.zeros((new_cap, new_cap))
-        mean[:self._dim] = self.mean
-        cov[:self._dim, :self._dim] = self.cov
+    def _grow(self, dim: int) -> None:
+        """Reallocate to ``dim`` (O(n^2), once per new landmark; updates stay in place)."""
+        old = self._dim
+        mean = np.zeros(dim)
+        cov = np.zeros((dim, dim))
+        mean[:old] = self._mean_buf
+        cov[:old, :old] = self._cov_buf
         self._mean_buf, self._cov_buf = mean, cov
 
     # ------------------------------------------------------------- health

@@ -5,7 +5,6 @@ it (the in-process truth world, MAVLink, a tlog) cannot be told apart from here.
 """
 from __future__ import annotations
 
-import copy
 import math
 from collections import deque
 from dataclasses import dataclass, field
@@ -37,11 +36,10 @@ class UrgencyChange:
 
 @dataclass
 class _Young:
-    """A landmark on probation: the state before it was added, and its dead-reckoned points."""
-    snapshot: tuple
-    log_index: int
+    """A landmark on probation: its dead-reckoned world points and its last observation."""
     times: list = field(default_factory=list)
     points: list = field(default_factory=list)
+    last_obs: Observation | None = None
 
 
 class Navigator:
@@ -67,9 +65,7 @@ class Navigator:
         self._strikes: dict[int, int] = {}
         self._dr_pose = np.array(start_pose, dtype=float)   # odometry only, never corrected
         self._young: dict[int, _Young] = {}
-        self._log: list[tuple] = []
-        self._to_track: set[int] = set()
-        self.rollbacks = 0
+        self.movers_detected = 0
         self.t_s: float | None = None          # time of the last odometry the filter has absorbed
         self._yaw_rad: float | None = None
         self._pending: deque[tuple[float, list[Observation]]] = deque()
@@ -121,24 +117,19 @@ class Navigator:
         self.slam.predict(speed_mps, heading_change_rad, dt_s)
         self.clock_s += max(dt_s, 0.0)
         self._dr_pose = move(self._dr_pose, speed_mps, heading_change_rad, dt_s)
-        if self._young:
-            self._log.append(("predict", speed_mps, heading_change_rad, dt_s))
 
     def observe(self, observations: list[Observation]) -> list[UpdateReport]:
         """One camera frame: static landmarks update the SLAM state, movers only their tracks.
 
-        A landmark seen for the first time is on probation for ``probation_s``: its world points,
-        placed from the dead-reckoned pose, are watched for motion. If it moves, the filter is
-        rolled back to just before the frame that added it and the frames since are replayed with
-        it tracked as a mover, so a mover never leaves a mark on the map or the pose. Static
-        worlds never roll back and behave exactly as without this machinery.
+        A landmark seen for the first time is on probation for ``probation_s``: its observations
+        correct only itself (a Schmidt update, never the pose or other landmarks), and its world
+        points, placed from the dead-reckoned pose (odometry only, which a mover cannot drag
+        along), are watched for motion. If it moves, it is marginalised out of the map and
+        tracked; the pose never saw it. After probation it is an ordinary landmark.
         """
-        known = set(self.slam.landmark_ids()) | set(self.movers.by_obstacle_id) | self._to_track
+        known = set(self.slam.landmark_ids()) | set(self.movers.by_obstacle_id)
         fresh = {o.obstacle_id for o in observations
                  if o.obstacle_id is not None and o.obstacle_id not in known}
-        snapshot = self._snapshot() if fresh else None
-        if fresh or self._young:
-            self._log.append(("frame", observations))
         used: set[int] = set()
         reports = []
         for obs in observations:
@@ -146,23 +137,19 @@ class Navigator:
             if report.action in ("updated", "added") and report.landmark_index is not None:
                 used.add(report.landmark_index)
             if report.action == "added" and obs.obstacle_id in fresh:
-                self._young[obs.obstacle_id] = _Young(snapshot, len(self._log) - 1, [], [])
+                self._young[obs.obstacle_id] = _Young()
             young = self._young.get(obs.obstacle_id)
             if young is not None and report.action in ("updated", "added", "outlier"):
                 young.times.append(self.clock_s)
                 young.points.append(place(self._dr_pose, np.array([obs.range_m, obs.bearing_rad])))
+                young.last_obs = obs
             reports.append(report)
+        reports.extend(self._judge_young())
         self.movers.prune(self.clock_s)
-        self._judge_young()
         return reports
 
     def _observe_one(self, obs: Observation, used: set[int]) -> UpdateReport:
         slam, oid = self.slam, obs.obstacle_id
-        if oid is not None and oid in self._to_track:
-            self._to_track.discard(oid)
-            point, cov = self._world_point(obs)
-            self.movers.create(self.clock_s, point, cov, oid)
-            return UpdateReport("mover_detected", None, None, None, oid)
         if oid is not None and oid in self.movers.by_obstacle_id:
             return self._update_mover(self.movers.by_obstacle_id[oid], obs)
         if oid is None and len(self.movers):
@@ -173,7 +160,7 @@ class Navigator:
                 track = self.movers.nearest(self.clock_s, point, cov)
                 if track is not None:
                     return self._update_mover(track, obs)
-        report = slam.update(obs, exclude=used)
+        report = slam.update(obs, exclude=used, landmark_only=oid in self._young)
         if oid is None:
             return report
         if report.action != "outlier":
@@ -184,28 +171,31 @@ class Navigator:
             return report                    # a young landmark is judged by _judge_young
         # An old landmark refused twice in a row by the static map has started to move. Its
         # refused observations never touched map or pose: take it out of the map, track it.
-        del self._strikes[oid]
-        index = report.landmark_index
-        slam.remove_landmark(index)
-        shifted = {i - 1 if i > index else i for i in used if i != index}
-        used.clear()
-        used.update(shifted)
-        point, cov = self._world_point(obs)
-        self.movers.create(self.clock_s, point, cov, oid)
+        self._demote(oid, obs, used)
         return UpdateReport("mover_detected", None, report.innovation, report.nis, oid)
 
-    # ------------------------------------------------------- probation
-    def _snapshot(self) -> tuple:
-        return (self.slam.copy(), copy.deepcopy(self.movers), dict(self._strikes), self.clock_s,
-                self._dr_pose.copy(), set(self._to_track))
+    def _demote(self, oid: int, obs: Observation, used: set[int] | None = None) -> None:
+        """Marginalise landmark ``oid`` out of the map and start a mover track at ``obs``."""
+        self._strikes.pop(oid, None)
+        self._young.pop(oid, None)
+        index = self.slam.landmark_ids().index(oid)
+        self.slam.remove_landmark(index)
+        if used is not None:
+            shifted = {i - 1 if i > index else i for i in used if i != index}
+            used.clear()
+            used.update(shifted)
+        point, cov = self._world_point(obs)
+        self.movers.create(self.clock_s, point, cov, oid)
+        self.movers_detected += 1
 
-    def _judge_young(self) -> None:
+    def _judge_young(self) -> list[UpdateReport]:
         params = self.mover_params
         noise = self.slam.noise
         point_sigma = math.hypot(noise.range_sigma_m, 40.0 * noise.bearing_sigma_rad)
+        detected = []
         for oid, young in list(self._young.items()):
             if self.clock_s - young.times[0] > params.probation_s:
-                del self._young[oid]             # watched long enough: static
+                del self._young[oid]             # watched long enough: static from now on
                 continue
             moving = self._strikes.get(oid, 0) >= params.strikes_to_mover
             if not moving and young.times[-1] - young.times[0] >= params.min_span_s:
@@ -215,32 +205,9 @@ class Navigator:
                 speed = float(np.hypot(*velocity))
                 moving = speed > params.speed_threshold_mps and speed > params.speed_sigmas * sigma
             if moving:
-                self._roll_back(oid)
-                return                           # the replay judged everyone afresh
-        if not self._young:
-            self._log.clear()
-
-    def _roll_back(self, oid: int) -> None:
-        """Restore the state from before ``oid`` was added and replay since, tracking it."""
-        young = self._young[oid]
-        slam, movers, strikes, clock, dr_pose, to_track = young.snapshot
-        self.slam, self.movers, self._strikes = slam.copy(), copy.deepcopy(movers), dict(strikes)
-        self.clock_s, self._dr_pose, self._to_track = clock, dr_pose.copy(), set(to_track) | {oid}
-        entries = self._log[young.log_index:]
-        del self._log[young.log_index:]
-        for other, entry in list(self._young.items()):
-            if entry.log_index >= young.log_index:
-                del self._young[other]
-            else:
-                keep = [i for i, t in enumerate(entry.times) if t <= clock]
-                entry.times[:] = [entry.times[i] for i in keep]
-                entry.points[:] = [entry.points[i] for i in keep]
-        self.rollbacks += 1
-        for kind, *args in entries:
-            if kind == "predict":
-                self.predict(*args)
-            else:
-                self.observe(*args)
+                self._demote(oid, young.last_obs)
+                detected.append(UpdateReport("mover_detected", None, None, None, oid))
+        return detected
 
     def _world_point(self, obs: Observation) -> tuple[np.ndarray, np.ndarray]:
         return world_measurement(self.slam.pose, self.slam.pose_cov,
