@@ -13,6 +13,7 @@ from typing import Literal
 from companion.config_loader import FieldError, build, read_yaml, require
 from companion.core.ekf_slam import AssociationGates, SlamNoise
 from companion.core.guidance import GuidanceParams
+from companion.core.union import UnionParams
 from companion.errors import ConfigError
 
 
@@ -169,9 +170,17 @@ class AvoidanceConfig:
     apf_attraction_gain: float = 1.0
     apf_repulsion_gain: float = 3e5
     apf_influence_m: float = 20.0
+    lookahead_s: float = 6.0              # union: cones count within speed * lookahead
+    hysteresis: float = 0.5               # union: weight of turning away from the last choice
+    camera_fov_deg: float | None = None   # union: turn in place beyond it (None: the sensor's, or 90)
 
     def __post_init__(self) -> None:
         _positive("safety_distance_m", self.safety_distance_m)
+        _positive("lookahead_s", self.lookahead_s)
+        require(self.hysteresis >= 0.0, "hysteresis", self.hysteresis, "a weight >= 0")
+        if self.camera_fov_deg is not None:
+            require(0.0 < self.camera_fov_deg <= 360.0, "camera_fov_deg", self.camera_fov_deg,
+                    "a field of view in (0, 360]")
         _positive("horizon_s", self.horizon_s)
         require(self.eta >= 1.0, "eta", self.eta, "a safety factor >= 1")
         if self.mission_time_s is not None:
@@ -180,6 +189,10 @@ class AvoidanceConfig:
         for key in ("approach_decel_mps2", "apf_attraction_gain", "apf_repulsion_gain",
                     "apf_influence_m"):
             _positive(key, getattr(self, key))
+
+    def union_params(self, sensor_fov_rad: float = math.radians(90.0)) -> UnionParams:
+        fov = math.radians(self.camera_fov_deg) if self.camera_fov_deg is not None else sensor_fov_rad
+        return UnionParams(lookahead_s=self.lookahead_s, hysteresis=self.hysteresis, fov_rad=fov)
 
     def guidance_params(self, cruise_speed_mps: float, goal_radius_m: float) -> GuidanceParams:
         return GuidanceParams(

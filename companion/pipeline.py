@@ -60,7 +60,8 @@ class Arrived:
     t_s: float
 
 
-Output = codec.VelocitySetpoint | codec.PoseEstimate | codec.Notice | StreamsWanted \
+Output = codec.VelocitySetpoint | codec.PoseEstimate | codec.Notice | codec.MoverReport \
+    | StreamsWanted \
     | NavigatorStarted | Arrived
 
 
@@ -292,7 +293,7 @@ class Pipeline:
         return Navigator(np.array([north_m, east_m, wrap_angle(yaw_rad)]), pose_cov,
                          est.slam_noise(), est.gates(), self.config.guidance_params(goal.radius_m),
                          np.array([goal.north_m, goal.east_m]),
-                         self.config.avoidance.strategy)
+                         self.config.avoidance.strategy, self.config.avoidance.union_params())
 
     def _maybe_publish_pose(self, t_s: float, out: list[Output]) -> None:
         if self._last_pose_out_t_s is not None and t_s - self._last_pose_out_t_s \
@@ -306,6 +307,12 @@ class Pipeline:
         out.append(codec.PoseEstimate(t_s, float(pose[0]), float(pose[1]), float(pose[2]),
                                       tuple(tuple(float(v) for v in row) for row in cov),
                                       self.reset_counter))
+        # Tracked movers, for the ground station to see (docs/messages.md).
+        for mover in self.navigator.movers.states(self.navigator.clock_s):
+            if np.all(np.isfinite(mover.position_ne_m)):
+                out.append(codec.MoverReport(t_s, mover.obstacle_id, mover.track_id,
+                                             float(mover.position_ne_m[0]),
+                                             float(mover.position_ne_m[1])))
 
     # ------------------------------------------------------------ obstacles
     def _on_obstacles(self, t_link_s: float, frame: codec.ObstacleFrame, out: list[Output]) -> None:

@@ -98,6 +98,8 @@ class Service:
             link.send(codec.odometry(output))
         elif isinstance(output, codec.Notice):
             link.send(codec.statustext(output))
+        elif isinstance(output, codec.MoverReport):
+            link.send(codec.mover_obstacle(output))
         elif isinstance(output, StreamsWanted):
             log.info("asking for telemetry streams: %s", output.reason)
             self.streams_wanted.set()

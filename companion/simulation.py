@@ -15,7 +15,6 @@ from companion.config import Scenario
 from companion.core.geometry import wrap_angle
 from companion.core.guidance import limit_turn
 from companion.core.navigator import Navigator
-from companion.core.union import UnionParams
 from companion.truth import TruthWorld
 
 # A run reaches the goal when the vehicle declares arrival (estimate within goal.radius_m) and the
@@ -51,7 +50,7 @@ def make_navigator(scenario: Scenario, strategy: str | None = None) -> Navigator
     goal = np.array([scenario.world.goal.north_m, scenario.world.goal.east_m])
     return Navigator(pose, pose_cov, est.slam_noise(), est.gates(), scenario.guidance_params(),
                      goal, strategy or scenario.avoidance.strategy,
-                     UnionParams(fov_rad=scenario.sensor.fov_rad))
+                     scenario.avoidance.union_params(scenario.sensor.fov_rad))
 
 
 def pose_nees(true_pose: np.ndarray, est_pose: np.ndarray, cov: np.ndarray) -> float:

@@ -223,6 +223,30 @@ class PoseEstimate:
 
 
 @dataclass(frozen=True)
+class MoverReport:
+    """A tracked moving obstacle's estimated position (LOCAL_NED, SLAM frame) at vehicle time t_s."""
+    t_s: float
+    obstacle_id: int | None
+    track_id: int
+    north_m: float
+    east_m: float
+
+
+# Tracks without a sensor id are published with ids from here up, clear of the camera's ids.
+MOVER_TRACK_ID_BASE = 60000
+
+
+def mover_obstacle(report: MoverReport) -> mavlink.MAVLink_obstacle_distance_3d_message:
+    """OBSTACLE_DISTANCE_3D in MAV_FRAME_LOCAL_NED: a tracked mover's position for the ground
+    station (the camera's own reports are BODY_FRD; the frame tells the two apart)."""
+    oid = report.obstacle_id if report.obstacle_id is not None else \
+        min(MOVER_TRACK_ID_BASE + report.track_id, 65534)
+    return mavlink.MAVLink_obstacle_distance_3d_message(
+        ms_of(report.t_s), mavlink.MAV_DISTANCE_SENSOR_UNKNOWN, mavlink.MAV_FRAME_LOCAL_NED,
+        oid, report.north_m, report.east_m, 0.0, 0.0, 0.0)
+
+
+@dataclass(frozen=True)
 class Notice:
     """A STATUSTEXT to the ground station."""
     severity: int
