@@ -37,7 +37,8 @@ def main() -> None:
                 world = random_world(base, kind, seed)
                 s = run_once(world, seed, strategy).summary
                 straight = np.hypot(world.world.goal.north_m - world.world.start.north_m,
-                                    world.world.goal.east_m - world.world.start.east_m)
+                                    world.world.goal.east_m - world.world.start.east_m
+                                    ) - world.world.goal.radius_m   # the flight ends at the radius
                 rows.append((s["reached_goal"] and s["min_clearance_m"] >= 0.95 * d,
                              s["collided"], s["min_clearance_m"], s["path_length_m"] - straight))
             ok, hit, clear, detour = map(np.array, zip(*rows))

@@ -9,6 +9,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+from filterpy.stats import NEES
 from scipy.stats import chi2
 
 from companion.config import Scenario
@@ -54,9 +55,10 @@ def make_navigator(scenario: Scenario, strategy: str | None = None) -> Navigator
 
 
 def pose_nees(true_pose: np.ndarray, est_pose: np.ndarray, cov: np.ndarray) -> float:
+    """Pose NEES, e^T P^-1 e with the yaw error wrapped (filterpy's NEES; offline only)."""
     error = true_pose - est_pose
     error[2] = wrap_angle(error[2])
-    return float(error @ np.linalg.solve(cov, error))
+    return float(NEES(error[None, :], np.zeros((1, 3)), cov[None, :, :])[0])
 
 
 def run_once(scenario: Scenario, seed: int, strategy: str | None = None) -> RunOutcome:

@@ -8,7 +8,11 @@ return is frozen: :class:`UpdateReport` carries the diagnostics (innovation, NIS
 Costs: predict touches only the vehicle rows and columns, O(n). An update is one gather of five
 columns and one rank-4 in-place correction of the covariance (Joseph form), O(n^2) with a single
 pass over the matrix. filterpy's ExtendedKalmanFilter is not used for either: its predict forms
-F P F^T densely (O(n^3)) and its update builds the dense (N, N) I - K H product.
+F P F^T densely (O(n^3)) and its update builds the dense (N, N) I - K H product. Nor is
+filterpy.stats.mahalanobis, which inverts one S per call: association here scores every landmark
+at once with closed-form 2x2 inverses (``nis_all``). filterpy does serve where it fits: the
+movers' 4-state KalmanFilter (core/movers.py) and the NEES of the Monte Carlo runs
+(simulation.pose_nees).
 """
 from __future__ import annotations
 
