@@ -6,7 +6,7 @@ Degrees live only in keys ending in ``_deg``; properties give radians.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Literal
 
@@ -306,6 +306,7 @@ class LinkConfig:
     heartbeat_timeout_s: float = 3.0          # vehicle heartbeat older than this: stop commanding
     reconnect_interval_s: float = 1.0
     inbox_size: int = 1000
+    signing_key_file: str | None = None       # MAVLink 2 signing: file with the key, 64 hex chars
 
     def __post_init__(self) -> None:
         for key in ("component_id", "camera_component_id"):
@@ -318,6 +319,8 @@ class LinkConfig:
         for key in ("heartbeat_rate_hz", "heartbeat_timeout_s", "reconnect_interval_s"):
             _positive(key, getattr(self, key))
         require(self.inbox_size >= 10, "inbox_size", self.inbox_size, "an integer >= 10")
+        require(self.signing_key_file is None or self.signing_key_file.strip() != "",
+                "signing_key_file", self.signing_key_file, "a file name or null")
 
 
 @dataclass(frozen=True)
@@ -401,8 +404,43 @@ class CompanionConfig:
 
 
 def load_config(path: str | Path) -> CompanionConfig:
-    """Read and validate a companion config; a mistake raises ConfigError naming file and key."""
-    return build(CompanionConfig, read_yaml(path), path)
+    """Read and validate a companion config; a mistake raises ConfigError naming file and key.
+
+    A relative ``link.signing_key_file`` is taken from the config file's folder.
+    """
+    config = build(CompanionConfig, read_yaml(path), path)
+    key_file = config.link.signing_key_file
+    if key_file is not None and not Path(key_file).is_absolute():
+        config = replace(config, link=replace(
+            config.link, signing_key_file=str(Path(path).resolve().parent / key_file)))
+    return config
+
+
+SIGNING_KEY_BYTES = 32
+
+
+def read_signing_key(link: LinkConfig) -> bytes | None:
+    """The MAVLink 2 signing key named by ``link.signing_key_file`` (None: signing off).
+
+    The file holds 64 hex characters (whitespace ignored). Errors name the file and the problem,
+    never the content: it is a secret.
+    """
+    if link.signing_key_file is None:
+        return None
+    where = f"link.signing_key_file: {link.signing_key_file}"
+    try:
+        text = Path(link.signing_key_file).read_text()
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"{where}: cannot read: {getattr(exc, 'strerror', None) or exc}") \
+            from None
+    hex_text = "".join(text.split())
+    if len(hex_text) != 2 * SIGNING_KEY_BYTES:
+        raise ConfigError(f"{where}: expected {2 * SIGNING_KEY_BYTES} hex characters, "
+                          f"got {len(hex_text)}")
+    try:
+        return bytes.fromhex(hex_text)
+    except ValueError:
+        raise ConfigError(f"{where}: not hexadecimal") from None
 
 
 def config_to_dict(config) -> dict:

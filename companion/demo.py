@@ -23,7 +23,8 @@ import yaml
 
 from companion.adapters import codec
 from companion.adapters.mavlink_link import open_link
-from companion.config import CompanionConfig, GoalConfig, Scenario, config_to_dict, load_config
+from companion.config import (CompanionConfig, GoalConfig, Scenario, config_to_dict, load_config,
+                              read_signing_key)
 from companion.core.geometry import wrap_angle
 from companion.errors import CompanionError
 from companion.paths import resolve_config
@@ -62,9 +63,14 @@ class DemoFiles:
         return self.workdir / "companion.yaml"
 
 
-def demo_config(scenario: Scenario, base_path: str = "config/companion.yaml") -> CompanionConfig:
-    """The companion's settings for a scenario: its estimator, avoidance, goal and limits."""
+def demo_config(scenario: Scenario, base_path: str = "config/companion.yaml",
+                signing_key_file: Path | None = None) -> CompanionConfig:
+    """The companion's settings for a scenario: its estimator, avoidance, goal and limits;
+    signed traffic with the key in ``signing_key_file`` (an absolute path) if given."""
     base = load_config(resolve_config(base_path))
+    if signing_key_file is not None:
+        base = dataclasses.replace(base, link=dataclasses.replace(
+            base.link, signing_key_file=str(signing_key_file)))
     goal = scenario.world.goal
     commanding = dataclasses.replace(
         base.commanding, cruise_speed_mps=scenario.vehicle.speed_mps,
@@ -180,8 +186,10 @@ async def command_until_accepted(link, msg_factory, name: str, children: list[Ch
 async def ground_station(tcp_port: int, files: DemoFiles, scenario: Scenario, speedup: float,
                          children: list[Child], config: CompanionConfig) -> dict:
     """Set GUIDED, arm, and wait for the companion to report arrival; returns its report."""
+    key = read_signing_key(config.link)
     async with open_link(f"tcp:127.0.0.1:{tcp_port}",
-                         codec.Encoder(GCS_SYSTEM_ID, codec.MAV_COMP_ID_MISSIONPLANNER)) as link:
+                         codec.Encoder(GCS_SYSTEM_ID, codec.MAV_COMP_ID_MISSIONPLANNER, key),
+                         signing_key=key) as link:
         async with asyncio.TaskGroup() as tg:
             receiver = tg.create_task(link.run(), name="gcs-receive")
             await wait_for(lambda: read_report(files.report), "the companion's estimator",
@@ -230,9 +238,12 @@ def read_truth(path: Path, tail_only: bool = False) -> list[dict]:
 
 
 async def run_demo(scenario_path: Path, scenario: Scenario, files: DemoFiles, speedup: float,
-                   seed: int, drop_rate: float) -> tuple[dict, dict, list[dict]]:
-    """Fly the scenario; returns (the companion's report, its config, the truth records)."""
-    config = demo_config(scenario)
+                   seed: int, drop_rate: float,
+                   signing_key_file: Path | None = None) -> tuple[dict, dict, list[dict]]:
+    """Fly the scenario; returns (the companion's report, its config, the truth records).
+    With ``signing_key_file``, the stub, the companion and the ground station all sign."""
+    config = demo_config(scenario, signing_key_file=signing_key_file)
+    read_signing_key(config.link)             # a bad key file fails here, before any child
     files.config.write_text(yaml.safe_dump(config_to_dict(config)))
     children: list[Child] = []
     try:
@@ -241,6 +252,8 @@ async def run_demo(scenario_path: Path, scenario: Scenario, files: DemoFiles, sp
                      "--seed", str(seed), "--truth-log", str(files.truth)]
         if drop_rate:
             stub_args += ["--drop-rate", str(drop_rate)]
+        if signing_key_file is not None:
+            stub_args += ["--signing-key", str(signing_key_file)]
         stub = await spawn("sitl-stub", stub_args, files.workdir, stdout=asyncio.subprocess.PIPE)
         children.append(stub)
         tcp_port, udp_port = await wait_for_ready(stub)

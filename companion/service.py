@@ -28,7 +28,7 @@ import yaml
 from companion.adapters import codec
 from companion.adapters.mavlink_link import MavlinkLink, open_link
 from companion.adapters.tlog import TlogWriter
-from companion.config import CompanionConfig, config_to_dict
+from companion.config import CompanionConfig, config_to_dict, read_signing_key
 from companion.errors import ShutdownRequested
 from companion.pipeline import Arrived, NavigatorStarted, Pipeline, StreamsWanted, snapshot
 from companion.report import _clean
@@ -196,15 +196,19 @@ async def run_service(config: CompanionConfig, url: str, tlog_path: str | Path |
                       report_path: str | Path | None = None) -> None:
     """Run the daemon until SIGINT/SIGTERM. ``config.goal`` must be set."""
     loop = asyncio.get_running_loop()
+    # The key stays in this frame, the encoder and the parser: never in the config, a log line,
+    # the tlog's sidecar or the report (they name the key file only).
+    signing_key = read_signing_key(config.link)
     tlog = None
     if tlog_path is not None:
         tlog = TlogWriter(tlog_path)
         sidecar_config_path(tlog_path).write_text(yaml.safe_dump(config_to_dict(config)))
-    encoder = codec.Encoder(config.link.system_id or PLACEHOLDER_SYSTEM_ID, config.link.component_id)
+    encoder = codec.Encoder(config.link.system_id or PLACEHOLDER_SYSTEM_ID,
+                            config.link.component_id, signing_key)
     service = None
     try:
         async with open_link(url, encoder, config.link.inbox_size,
-                             config.link.reconnect_interval_s) as link:
+                             config.link.reconnect_interval_s, signing_key) as link:
             service = Service(config, link, tlog, report_path)
             for sig in (signal.SIGINT, signal.SIGTERM):
                 loop.add_signal_handler(sig, service.stop.set)
@@ -212,6 +216,9 @@ async def run_service(config: CompanionConfig, url: str, tlog_path: str | Path |
                      f" (local {link.local_address[0]}:{link.local_address[1]})"
                      if link.local_address else "", config.goal.north_m, config.goal.east_m)
             log.info("effective config: %s", config_to_dict(config))
+            if signing_key is not None:
+                log.info("MAVLink 2 signing on (key from %s): unsigned traffic refused",
+                         config.link.signing_key_file)
             try:
                 async with asyncio.TaskGroup() as tg:
                     tg.create_task(link.run(), name="receive")

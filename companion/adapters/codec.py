@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 import os
+import time
 from dataclasses import dataclass
 
 os.environ.setdefault("MAVLINK20", "1")
@@ -168,6 +169,8 @@ def _obstacle_sectors(msg, sysid: int, compid: int) -> ObstacleFrame:
     t_s = msg.time_usec / 1e6
     if msg.frame not in (0, mavlink.MAV_FRAME_BODY_FRD):
         return ObstacleFrame(sysid, compid, t_s, (), f"frame {msg.frame} not BODY_FRD")
+    if not (math.isfinite(msg.angle_offset) and math.isfinite(msg.increment_f)):
+        return ObstacleFrame(sysid, compid, t_s, (), "non-finite sector angles")
     bearings = sector_bearings_rad(msg.increment, msg.increment_f, msg.angle_offset,
                                    len(msg.distances))
     observations = tuple(
@@ -371,13 +374,42 @@ def message_type(msg) -> str:
     return msg.get_type()
 
 
-class Encoder:
-    """Packs outbound messages with our ids; MAVLink.send() advances the sequence number."""
+# MAVLink 2 signing timestamps count 10 us units from 2015-01-01 00:00:00 UTC.
+SIGNING_EPOCH_UNIX_S = 1420070400
 
-    def __init__(self, system_id: int, component_id: int) -> None:
+
+def signing_timestamp(unix_s: float) -> int:
+    """The signing timestamp for a Unix time (10 us units since 2015)."""
+    return int(max(0.0, unix_s - SIGNING_EPOCH_UNIX_S) * 100_000)
+
+
+def _enable_signing(mav: mavlink.MAVLink, key: bytes, unix_s: float, sign_outgoing: bool) -> None:
+    mav.signing.secret_key = key
+    mav.signing.timestamp = signing_timestamp(unix_s)
+    mav.signing.sign_outgoing = sign_outgoing
+    # No unsigned message is let through (ArduPilot lets RADIO_STATUS pass; we use none).
+    mav.signing.allow_unsigned_callback = None
+
+
+class Encoder:
+    """Packs outbound messages with our ids; MAVLink.send() advances the sequence number.
+
+    With ``signing_key`` (32 bytes) every packet is MAVLink 2 signed, its timestamp starting at
+    ``unix_s`` (now, so that a receiver that has seen recent traffic accepts the new stream).
+    """
+
+    def __init__(self, system_id: int, component_id: int, signing_key: bytes | None = None,
+                 unix_s: float | None = None) -> None:
         self._mav = make_mavlink(system_id, component_id)
         self._mav.file = self
         self._last = b""
+        if signing_key is not None:
+            _enable_signing(self._mav, signing_key, time.time() if unix_s is None else unix_s,
+                            sign_outgoing=True)
+
+    @property
+    def signing(self) -> bool:
+        return self._mav.signing.sign_outgoing
 
     def write(self, data: bytes) -> None:        # MAVLink.send()'s file
         self._last = bytes(data)
@@ -396,12 +428,23 @@ class Encoder:
 
 
 class Parser:
-    """Bytes in, messages out. Counts packets that failed their CRC or could not be decoded."""
+    """Bytes in, messages out. Counts packets that failed their CRC or could not be decoded.
 
-    def __init__(self) -> None:
+    With ``signing_key``, only packets signed with that key are accepted; unsigned packets,
+    packets signed with another key and replayed (old-timestamp) packets are refused and
+    counted in ``signature_rejected``.
+    """
+
+    def __init__(self, signing_key: bytes | None = None, unix_s: float | None = None) -> None:
         self._mav = make_mavlink(0, 0)
         self.bad_packets = 0
         self.unknown_packets = 0
+        self.signature_rejected = 0
+        if signing_key is not None:
+            # A new stream must be stamped at most a minute before ``unix_s`` (now): a packet
+            # recorded earlier cannot be replayed at us; within a stream time must advance.
+            _enable_signing(self._mav, signing_key, time.time() if unix_s is None else unix_s,
+                            sign_outgoing=False)
 
     def feed(self, data: bytes) -> list:
         try:
@@ -412,7 +455,9 @@ class Parser:
         good = []
         for msg in msgs:
             kind = msg.get_type()
-            if kind == "BAD_DATA":
+            if kind == "BAD_DATA" and "signature" in str(getattr(msg, "reason", "")).lower():
+                self.signature_rejected += 1
+            elif kind == "BAD_DATA":
                 self.bad_packets += 1
             elif kind.startswith("UNKNOWN_"):
                 self.unknown_packets += 1

@@ -47,6 +47,7 @@ class LinkStatistics:
     sent: int
     bad_packets: int
     unknown_packets: int
+    signature_rejected: int    # signing on: unsigned, wrongly signed or replayed packets refused
     dropped_inbound: int       # inbox full: the oldest message was dropped
     dropped_outbound: int      # no peer yet, or the peer is not reading
     connects: int
@@ -81,7 +82,7 @@ class MavlinkLink:
     """One MAVLink peer over one transport. Use :func:`open_link`."""
 
     def __init__(self, endpoint: Endpoint, encoder: Encoder, inbox_size: int,
-                 reconnect_interval_s: float) -> None:
+                 reconnect_interval_s: float, signing_key: bytes | None = None) -> None:
         self.endpoint = endpoint
         self.encoder = encoder
         self.inbox: asyncio.Queue[Received] = asyncio.Queue(maxsize=inbox_size)
@@ -92,7 +93,8 @@ class MavlinkLink:
         self._loop = asyncio.get_running_loop()
         self._base_us = int(time.time() * 1e6)
         self._base_loop_s = self._loop.time()
-        self._parser = Parser()
+        self._signing_key = signing_key
+        self._parser = Parser(signing_key)
         self._send_bytes: Callable[[bytes], bool] = lambda data: False
         self._counts = dict(received=0, sent=0, dropped_inbound=0, dropped_outbound=0, connects=0)
         self._closers: list[Callable[[], None]] = []
@@ -114,7 +116,8 @@ class MavlinkLink:
 
     def statistics(self) -> LinkStatistics:
         return LinkStatistics(bad_packets=self._parser.bad_packets,
-                              unknown_packets=self._parser.unknown_packets, **self._counts)
+                              unknown_packets=self._parser.unknown_packets,
+                              signature_rejected=self._parser.signature_rejected, **self._counts)
 
     async def run(self) -> None:
         """The receive task: keeps the transport alive (TCP reconnects) until cancelled."""
@@ -135,7 +138,7 @@ class MavlinkLink:
 
     def _connected(self, what: str) -> None:
         self._counts["connects"] += 1
-        self._parser = _carry_counts(self._parser)
+        self._parser = _carry_counts(self._parser, self._signing_key)
         log.info("link up: %s", what)
         if self.on_connect is not None:
             self.on_connect()
@@ -264,18 +267,24 @@ class MavlinkLink:
         self._connected(f"serial {self.endpoint.host} at {self.endpoint.port} baud")
 
 
-def _carry_counts(old: Parser) -> Parser:
+def _carry_counts(old: Parser, signing_key: bytes | None) -> Parser:
     """A fresh parser (no half packet from the old connection) that keeps the counters."""
-    new = Parser()
+    new = Parser(signing_key)
     new.bad_packets, new.unknown_packets = old.bad_packets, old.unknown_packets
+    new.signature_rejected = old.signature_rejected
     return new
 
 
 @asynccontextmanager
 async def open_link(url: str, encoder: Encoder, inbox_size: int = 1000,
-                    reconnect_interval_s: float = 1.0) -> AsyncIterator[MavlinkLink]:
-    """Open the link for ``url``; the transport is closed on exit, whatever happens."""
-    link = MavlinkLink(parse_url(url), encoder, inbox_size, reconnect_interval_s)
+                    reconnect_interval_s: float = 1.0,
+                    signing_key: bytes | None = None) -> AsyncIterator[MavlinkLink]:
+    """Open the link for ``url``; the transport is closed on exit, whatever happens.
+
+    ``signing_key`` (32 bytes): accept only packets signed with it. Outbound signing is the
+    encoder's (give it the same key).
+    """
+    link = MavlinkLink(parse_url(url), encoder, inbox_size, reconnect_interval_s, signing_key)
     try:
         await link.open()
         yield link

@@ -29,7 +29,11 @@ def add_parser(sub) -> None:
                    help="simulated seconds per wall second (default 20)")
     p.add_argument("--seed", type=int, default=0, help="the stub's noise seed (default 0)")
     p.add_argument("--drop-rate", type=float, default=0.0,
-                   help="fraction of datagrams the stub drops (default 0)")
+                   help="fraction of datagrams (UDP, companion <-> stub) and TCP messages (ground "
+                        "station <-> stub) the stub drops, both directions, seeded by --seed "
+                        "(default 0)")
+    p.add_argument("--signing-key", metavar="FILE",
+                   help="MAVLink 2 signing for everyone: FILE holds the key as 64 hex chars")
     p.add_argument("--json", metavar="PATH", help="write {aggregate, runs} as JSON")
     p.add_argument("--plot", metavar="PATH", help="draw the flight as a PNG (paper's Figure 4)")
     p.add_argument("--tlog", metavar="PATH", help="the companion records its traffic here")
@@ -54,7 +58,8 @@ def run(args: argparse.Namespace) -> int:
         files = DemoFiles(workdir, tlog)
         try:
             report, _, truth = asyncio.run(run_demo(
-                scenario_path, scenario, files, args.speedup, args.seed, args.drop_rate))
+                scenario_path, scenario, files, args.speedup, args.seed, args.drop_rate,
+                Path(args.signing_key).resolve() if args.signing_key else None))
         except BaseExceptionGroup as group:
             match, rest = group.split(CompanionError)
             if match is None or rest is not None:

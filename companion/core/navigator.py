@@ -95,7 +95,24 @@ class Navigator:
         return self._release()
 
     def on_observations(self, t_s: float, observations: list[Observation]) -> list[UpdateReport]:
-        """One camera frame captured at ``t_s``; waits if the odometry has not reached ``t_s``."""
+        """One camera frame captured at ``t_s``; waits if the odometry has not reached ``t_s``.
+
+        Observations with a non-finite or non-positive range, or a non-finite bearing, are
+        refused and counted in ``rejected`` (one NaN would poison the whole state); a frame with
+        a non-finite time is refused whole.
+        """
+        if not math.isfinite(t_s):
+            self._reject("frame_time_not_finite")
+            return []
+        valid = []
+        for obs in observations:
+            if not (math.isfinite(obs.range_m) and math.isfinite(obs.bearing_rad)):
+                self._reject("observation_not_finite")
+            elif obs.range_m <= 0.0:
+                self._reject("observation_range_not_positive")
+            else:
+                valid.append(obs)
+        observations = valid
         if self.t_s is not None and t_s <= self.t_s + SAME_TIME_TOLERANCE_S:
             return self.observe(observations)
         if len(self._pending) >= MAX_PENDING_FRAMES:
