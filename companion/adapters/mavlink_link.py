@@ -106,12 +106,15 @@ class MavlinkLink:
     def send(self, msg) -> bytes | None:
         """Pack and send one message now (never blocks). Returns the bytes, or None if dropped."""
         data = self.encoder.encode(msg)
+        # Stamped as it is handed to the transport: on loopback, sendto() returns only after the
+        # kernel has delivered the datagram and woken the receiver (tens of us later).
+        t_us = self.now_us()
         if not self._send_bytes(data):
             self._counts["dropped_outbound"] += 1
             return None
         self._counts["sent"] += 1
         if self.on_sent is not None:
-            self.on_sent(self.now_us(), data)
+            self.on_sent(t_us, data)
         return data
 
     def statistics(self) -> LinkStatistics:
