@@ -466,9 +466,17 @@ class Parser:
         return good
 
     def decode_packet(self, packet: bytes):
-        """One whole packet -> message, or None (bad CRC, unknown id, malformed)."""
+        """One whole packet -> message, or None (bad CRC, unknown id, malformed).
+
+        An unknown message id is refused too: pymavlink cannot check its CRC (no CRC extra), so
+        random bytes that merely frame would otherwise pass for a message.
+        """
         try:
-            return self._mav.decode(bytearray(packet))
+            msg = self._mav.decode(bytearray(packet))
         except Exception:   # pymavlink raises MAVError, struct.error, IndexError... on garbage
             self.bad_packets += 1
             return None
+        if msg.get_type().startswith("UNKNOWN"):
+            self.unknown_packets += 1
+            return None
+        return msg
