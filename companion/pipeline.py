@@ -319,6 +319,13 @@ class Pipeline:
         if frame.component_id not in (self.vehicle[1], self.config.link.camera_component_id):
             self._count("ignored_other_source")
             return
+        if not math.isfinite(frame.t_s) or (self._latest_t_s is not None
+                                            and frame.t_s < self._latest_t_s - REBOOT_BACKSTEP_S):
+            # From before the vehicle's clock (a reboot not yet seen in its own messages, or a
+            # glitch): it would be matched against the wrong pose. Reboots are detected on the
+            # autopilot's messages only.
+            self._count("obstacle_too_old")
+            return
         self._last_camera_t_s = frame.t_s
         if frame.rejected:
             self._count("obstacle_rejected")

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import copy
+import dataclasses
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -28,8 +29,10 @@ class Recording:
         return out
 
 
-def fresh_pipeline(recording: Recording) -> Pipeline:
+def fresh_pipeline(recording: Recording, **link) -> Pipeline:
+    """A new pipeline with the recorded flight's config (``link`` keys overridden)."""
     config = load_config(recording.config_path)
+    config = dataclasses.replace(config, link=dataclasses.replace(config.link, **link))
     return Pipeline(config, config.goal, record_track=False)
 
 
