@@ -6,16 +6,16 @@ campaign's results do not depend on how many workers ran it or where. Tasks rece
 picklable values (the Scenario dataclass, the world kind, seeds, the strategy) and return only
 what the aggregate needs: each run's summary dict and its pose-NEES sequence, never the traces.
 
-Dask is optional (``pip install .[cluster]``): it is imported only inside :func:`open_client`, so
-this module, and the functions the workers run, import without it.
+Dask is optional (``pip install .[cluster]``): it is imported only when a cluster is used
+(:func:`require_dask`), so this module, and the functions the workers run, import without it.
 """
 from __future__ import annotations
 
 import dataclasses
+import glob
 import logging
 import math
 import os
-import glob
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -31,9 +31,10 @@ from companion.simulation import aggregate_summaries, run_once
 from companion.worlds import random_world
 
 log = logging.getLogger(__name__)
+
 # About this many tasks per worker: enough to balance runs of uneven length (long legs, detours)
 # across workers, few enough that scheduling (a few ms per task) stays negligible.
-TASKS_PER_WORKER = 16
+TASKS_PER_WORKER = 32
 MAX_RUNS_PER_TASK = 25
 
 

@@ -140,6 +140,36 @@ def test_sweep_gives_one_row_per_value_equal_to_a_run_with_that_value(tmp_path, 
     assert [line.split()[0] for line in table[1:3]] == ["1.0", "1.5"]
 
 
+def test_progress_bar_only_on_a_terminal(tmp_path, scheduler, capsys):
+    import fcntl
+    import pty
+    import struct
+    import termios
+    primary, secondary = pty.openpty()
+    # A terminal of 0 columns (a fresh pty's size) gets an empty bar from tqdm: give it a size.
+    fcntl.ioctl(secondary, termios.TIOCSWINSZ, struct.pack("HHHH", 24, 100, 0, 0))
+    try:
+        proc = subprocess.Popen([sys.executable, "-m", "companion", "campaign", "--scenario", PAPER,
+                                 "--runs", "2", "--scheduler", scheduler],
+                                stdout=subprocess.DEVNULL, stderr=secondary, cwd=REPO)
+        os.close(secondary)
+        seen = b""
+        while True:
+            try:
+                chunk = os.read(primary, 4096)
+            except OSError:                  # EIO: the child closed the terminal
+                break
+            if not chunk:
+                break
+            seen += chunk
+        assert proc.wait(timeout=60) == 0
+    finally:
+        os.close(primary)
+    assert b"campaign: 100%" in seen and b"2/2" in seen
+    assert main(["campaign", "--scenario", PAPER, "--runs", "2", "--scheduler", scheduler]) == 0
+    assert "2/2" not in capsys.readouterr().err             # not a terminal: no bar
+
+
 def test_bad_sweeps_are_refused_with_exit_2(capsys):
     assert main(["campaign", "--scenario", PAPER, "--runs", "2", "--sweep", "etta=1,2"]) == 2
     assert "unknown parameter 'etta'" in capsys.readouterr().err
