@@ -25,7 +25,7 @@ class MoverParams:
     initial_speed_sigma_mps: float = 2.0
     coast_s: float = 30.0                # delete a track unseen for this long (predicted meanwhile)
     gate_nis: float = 13.8               # chi-square 2 dof, 99.9%: association of id-less reports
-    probation_s: float = 4.0             # a new landmark is watched this long for motion
+    probation_s: float = 3.0             # a new landmark is watched this long for motion
     min_span_s: float = 1.0              # motion is judged over at least this much history
     speed_threshold_mps: float = 0.15    # slower than this counts as static
     speed_sigmas: float = 5.0            # and the speed must exceed this many standard errors
