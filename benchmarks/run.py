@@ -60,9 +60,9 @@ def print_report(report: dict) -> None:
               f"{row['step10_us']:>10.1f} {row['floor_rank2_us']:>9.1f} {row['dense_update_us']:>10.1f} "
               f"{row['update_us'] / row['floor_rank2_us']:>9.2f} "
               f"{row['dense_update_us'] / row['update_us']:>9.1f}")
-    system = report.get("system", {})
-    for key, value in system.items():
-        print(f"{key}: {value}")
+    if "system" in report:
+        from benchmarks.system import print_system
+        print_system(report["system"])
     print("targets:")
     for key, verdict in report["targets"].items():
         print(f"  {key:<30} {verdict['value']:>10.3f}  {verdict['target']:<8} "
