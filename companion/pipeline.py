@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import logging
 import math
+from array import array
 from collections import deque
 from dataclasses import asdict, dataclass
 
@@ -78,8 +79,12 @@ class Pipeline:
     """Vehicle tracking, odometry pairing, estimation, guidance and commanding rules."""
 
     def __init__(self, config: CompanionConfig, goal: GoalConfig | None,
-                 record_track: bool = False) -> None:
-        """``goal`` None: estimate only (a foreign tlog without a mission): no decisions."""
+                 record_track: bool = False, track_limit: int | None = None) -> None:
+        """``goal`` None: estimate only (a foreign tlog without a mission): no decisions.
+
+        ``track_limit``: keep only the latest rows of the track (the live daemon flies for
+        hours; a replay of a finite file keeps it all).
+        """
         self.config = config
         self.goal = goal
         self.record_track = record_track
@@ -109,7 +114,8 @@ class Pipeline:
         self.arrival_t_s: float | None = None
         self.started_t_s: float | None = None
         self.urgency: list[UrgencyRecord] = []
-        self.track: list[tuple[float, ...]] = []    # (t_s, north_m, east_m, yaw_rad, 9 cov)
+        # rows (t_s, north_m, east_m, yaw_rad, 9 cov) as compact float arrays (104 bytes each)
+        self.track: deque[array] = deque(maxlen=track_limit)
         self.counters: dict[str, int] = {}
         self.setpoints = 0
 
@@ -278,7 +284,7 @@ class Pipeline:
         self._ap_yaw_rad = yaw
         if self.record_track:
             pose, cov = nav.slam.pose, nav.slam.pose_cov
-            self.track.append((lpn.t_s, *pose.tolist(), *cov.ravel().tolist()))
+            self.track.append(array("d", (lpn.t_s, *pose.tolist(), *cov.ravel().tolist())))
         self._maybe_publish_pose(lpn.t_s, out)
         due = (self._last_decision_t_s is None or lpn.t_s - self._last_decision_t_s
                >= self.config.commanding.setpoint_period_s - TIME_EPS_S)

@@ -37,6 +37,8 @@ log = logging.getLogger(__name__)
 
 TLOG_FLUSH_INTERVAL_S = 0.5
 WATCHDOG_INTERVAL_S = 0.2
+# The report keeps the latest hour of track at 10 Hz (about 4 MB); the daemon flies for longer.
+REPORT_TRACK_ROWS = 36_000
 PLACEHOLDER_SYSTEM_ID = 1        # our system id until the vehicle's is known (if not configured)
 STREAMS = ((codec.MSG_ID_ATTITUDE, "attitude_rate_hz"),
            (codec.MSG_ID_LOCAL_POSITION_NED, "local_position_rate_hz"))
@@ -63,7 +65,8 @@ class Service:
         self.link = link
         self.tlog = tlog
         self.report_path = report_path
-        self.pipeline = Pipeline(config, config.goal, record_track=report_path is not None)
+        self.pipeline = Pipeline(config, config.goal, record_track=report_path is not None,
+                                 track_limit=REPORT_TRACK_ROWS)
         self.streams_wanted = asyncio.Event()
         self.acks: asyncio.Queue[codec.CommandAck] = asyncio.Queue(maxsize=16)
         self.stop = asyncio.Event()
