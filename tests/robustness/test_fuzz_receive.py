@@ -23,7 +23,7 @@ from companion.adapters.tlog import TlogReader, TlogWriter
 from tests.robustness.support import (check_estimate, check_outputs, clone, fresh_pipeline,
                                       rejections)
 
-FAST, SLOW = 40, 1500
+FAST, SLOW = 60, 1500
 MAX_PACKET_BYTES = 280           # MAVLink 2: 10 header + 255 payload + 2 CRC + 13 signature
 WINDOW = 150                     # messages of the recorded stream each case runs through
 
