@@ -131,7 +131,7 @@ def landmark_errors(nav: Navigator, truth: TruthWorld) -> list[float]:
     for oid, centre in zip(truth.obstacle_ids, truth.obstacle_positions()):
         if oid in ids:
             errors.append(float(np.hypot(*(landmarks[ids.index(oid)] - centre))))
-        elif len(landmarks) and None in ids:
+        elif len(landmarks) and any(i is None or i < 0 for i in ids):
             gaps = np.hypot(*(landmarks - centre).T)
             if gaps.min() < 5.0:
                 errors.append(float(gaps.min()))

@@ -96,3 +96,12 @@ def test_moving_worlds_acceptance(tmp_path):
     report = simulate(tmp_path, "--random-worlds", "moving", "--runs", "100")
     assert report["aggregate"]["collision_rate"] == 0.0
     assert report["aggregate"]["success_rate"] >= 0.95
+
+
+def test_moving_worlds_without_obstacle_ids(tmp_path):
+    """A camera that gives no ids: movers are still found from the observation stream."""
+    report = simulate(tmp_path, "--scenario", "config/scenarios/paper-anonymous.yaml",
+                      "--random-worlds", "moving", "--runs", "20", "--seed", "0")
+    agg = report["aggregate"]
+    assert agg["collision_rate"] == 0.0
+    assert agg["success_rate"] >= 0.95

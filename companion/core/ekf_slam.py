@@ -227,6 +227,19 @@ class EkfSlam:
             return self._add(z, None)
         return UpdateReport("ambiguous", best, None, best_nis, None)
 
+    def update_landmark(self, z: np.ndarray, index: int, landmark_only: bool = False) -> UpdateReport:
+        """Update with measurement z (2,) of a landmark the caller has already associated."""
+        return self._correct(self._innovation(z, index), index, self._index_to_id[index],
+                             landmark_only)
+
+    def set_landmark_id(self, index: int, obstacle_id: int) -> None:
+        """Name a landmark (the navigator gives id-less ones internal negative ids)."""
+        old = self._index_to_id[index]
+        if old is not None:
+            self._id_to_index.pop(old, None)
+        self._index_to_id[index] = obstacle_id
+        self._id_to_index[obstacle_id] = index
+
     def nis_all(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """NIS of measurement z (2,) against every landmark, vectorised: ((n,), (n, 2) innovations)."""
         n = self.landmark_count

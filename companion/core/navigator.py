@@ -21,6 +21,8 @@ from companion.core.union import UnionParams, guide_union
 # An observation frame stamped at most this much after the last odometry is processed at once
 # (the pose is that close); a later one waits for the odometry that covers its time.
 STRATEGIES = ("cone", "union", "apf")
+MAX_MOVER_SPEED_MPS = 3.0      # an id-less young landmark may have moved this fast...
+MOVED_GATE_M = 1.5             # ...plus this, between two sightings
 SAME_TIME_TOLERANCE_S = 1e-3
 MAX_PENDING_FRAMES = 8
 
@@ -66,6 +68,7 @@ class Navigator:
         self._dr_pose = np.array(start_pose, dtype=float)   # odometry only, never corrected
         self._young: dict[int, _Young] = {}
         self.movers_detected = 0
+        self._next_anonymous_id = -1
         self.t_s: float | None = None          # time of the last odometry the filter has absorbed
         self._yaw_rad: float | None = None
         self._pending: deque[tuple[float, list[Observation]]] = deque()
@@ -144,22 +147,12 @@ class Navigator:
         along), are watched for motion. If it moves, it is marginalised out of the map and
         tracked; the pose never saw it. After probation it is an ordinary landmark.
         """
-        known = set(self.slam.landmark_ids()) | set(self.movers.by_obstacle_id)
-        fresh = {o.obstacle_id for o in observations
-                 if o.obstacle_id is not None and o.obstacle_id not in known}
         used: set[int] = set()
         reports = []
         for obs in observations:
             report = self._observe_one(obs, used)
             if report.action in ("updated", "added") and report.landmark_index is not None:
                 used.add(report.landmark_index)
-            if report.action == "added" and obs.obstacle_id in fresh:
-                self._young[obs.obstacle_id] = _Young()
-            young = self._young.get(obs.obstacle_id)
-            if young is not None and report.action in ("updated", "added", "outlier"):
-                young.times.append(self.clock_s)
-                young.points.append(place(self._dr_pose, np.array([obs.range_m, obs.bearing_rad])))
-                young.last_obs = obs
             reports.append(report)
         reports.extend(self._judge_young())
         self.movers.prune(self.clock_s)
@@ -167,19 +160,14 @@ class Navigator:
 
     def _observe_one(self, obs: Observation, used: set[int]) -> UpdateReport:
         slam, oid = self.slam, obs.obstacle_id
-        if oid is not None and oid in self.movers.by_obstacle_id:
-            return self._update_mover(self.movers.by_obstacle_id[oid], obs)
-        if oid is None and len(self.movers):
-            z = np.array([obs.range_m, obs.bearing_rad])
-            static_nis = slam.nis_all(z)[0] if slam.landmark_count else np.array([np.inf])
-            if static_nis.min() > slam.gates.accept_nis:
-                point, cov = self._world_point(obs)
-                track = self.movers.nearest(self.clock_s, point, cov)
-                if track is not None:
-                    return self._update_mover(track, obs)
-        report = slam.update(obs, exclude=used, landmark_only=oid in self._young)
         if oid is None:
-            return report
+            return self._observe_anonymous(obs, used)
+        if oid in self.movers.by_obstacle_id:
+            return self._update_mover(self.movers.by_obstacle_id[oid], obs)
+        report = slam.update(obs, exclude=used, landmark_only=oid in self._young)
+        if report.action == "added":
+            self._young[oid] = _Young()
+        self._note_young(oid, obs, report.action)
         if report.action != "outlier":
             self._strikes.pop(oid, None)
             return report
@@ -190,6 +178,57 @@ class Navigator:
         # refused observations never touched map or pose: take it out of the map, track it.
         self._demote(oid, obs, used)
         return UpdateReport("mover_detected", None, report.innovation, report.nis, oid)
+
+    def _observe_anonymous(self, obs: Observation, used: set[int]) -> UpdateReport:
+        """An observation without an id: the static map's gate first, then a young landmark that
+        may have moved (a gate as wide as a mover's top speed allows), then the mover tracks,
+        then a new landmark. Id-less landmarks get internal negative ids (never published)."""
+        slam = self.slam
+        z = np.array([obs.range_m, obs.bearing_rad])
+        if slam.landmark_count:
+            nis = slam.nis_all(z)[0]
+            if used:
+                nis[list(used)] = np.inf
+            best = int(np.argmin(nis))
+            if nis[best] <= slam.gates.accept_nis:
+                key = slam.landmark_ids()[best]
+                report = slam.update_landmark(z, best, landmark_only=key in self._young)
+                self._note_young(key, obs, report.action)
+                return report
+        key = self._moved_young(place(self._dr_pose, z))
+        if key is not None:
+            self._note_young(key, obs, "moved")
+            return UpdateReport("moved", None, None, None, None)
+        if len(self.movers):
+            point, cov = self._world_point(obs)
+            track = self.movers.nearest(self.clock_s, point, cov)
+            if track is not None:
+                return self._update_mover(track, obs)
+        report = slam.update(obs, exclude=used)
+        if report.action == "added":
+            key = self._next_anonymous_id
+            self._next_anonymous_id -= 1
+            slam.set_landmark_id(report.landmark_index, key)
+            self._young[key] = _Young()
+            self._note_young(key, obs, "added")
+        return report
+
+    def _note_young(self, key: int, obs: Observation, action: str) -> None:
+        young = self._young.get(key)
+        if young is not None and action in ("updated", "added", "outlier", "moved"):
+            young.times.append(self.clock_s)
+            young.points.append(place(self._dr_pose, np.array([obs.range_m, obs.bearing_rad])))
+            young.last_obs = obs
+
+    def _moved_young(self, dr_point: np.ndarray) -> int | None:
+        """The young landmark whose last dead-reckoned point is near enough for a mover."""
+        best, best_gap = None, math.inf
+        for key, young in self._young.items():
+            gap = float(np.hypot(*(dr_point - young.points[-1])))
+            reach = (MAX_MOVER_SPEED_MPS * (self.clock_s - young.times[-1]) + MOVED_GATE_M)
+            if gap <= reach and gap < best_gap:
+                best, best_gap = key, gap
+        return best
 
     def _demote(self, oid: int, obs: Observation, used: set[int] | None = None) -> None:
         """Marginalise landmark ``oid`` out of the map and start a mover track at ``obs``."""
@@ -202,7 +241,7 @@ class Navigator:
             used.clear()
             used.update(shifted)
         point, cov = self._world_point(obs)
-        self.movers.create(self.clock_s, point, cov, oid)
+        self.movers.create(self.clock_s, point, cov, oid if oid >= 0 else None)
         self.movers_detected += 1
 
     def _judge_young(self) -> list[UpdateReport]:
@@ -272,6 +311,6 @@ class Navigator:
         change = None
         if key != self._urgent:
             self._urgent = key
-            oid = key[1] if key is not None and key[0] == "landmark" else None
+            oid = key[1] if key is not None and key[0] == "landmark" and key[1] >= 0 else None
             change = UrgencyChange(t_s, command.urgent_index, oid, command.time_to_go_s)
         return command, change

@@ -128,6 +128,28 @@ def test_schmidt_update_leaves_pose_and_other_landmarks_untouched():
     assert np.trace(full.cov[5:7, 5:7]) <= np.trace(slam.cov[5:7, 5:7]) < np.trace(cov[5:7, 5:7])
 
 
+def test_anonymous_mover_is_found_from_the_stream_and_leaves_no_trail():
+    from companion.truth import TruthWorld
+    scenario = world_with_a_mover((0.0, 0.8))
+    scenario = dataclasses.replace(scenario, sensor=dataclasses.replace(scenario.sensor, report_ids=False))
+    truth = TruthWorld(scenario, np.random.default_rng(1))
+    nav = make_navigator(scenario)
+    for step in range(1, 250):
+        odo = truth.step(5.0, 0.0)
+        nav.predict(odo.speed_mps, odo.heading_change_rad, 0.1)
+        if step % 2 == 0:
+            nav.observe(truth.observe())
+    assert nav.movers_detected >= 1 and len(nav.movers) == 1
+    (mover,) = nav.movers.states(nav.clock_s)
+    assert mover.obstacle_id is None                       # internal ids are never published
+    assert np.allclose(mover.velocity_ne_mps, [0.0, 0.8], atol=0.2)
+    assert np.hypot(*(mover.position_ne_m - truth.obstacle_positions()[1])) < 1.5
+    # The static map holds the two static obstacles and no trail of ghosts along the mover's path.
+    assert nav.slam.landmark_count == 2
+    static = truth.obstacle_positions()[[0, 2]]
+    assert all(np.min(np.hypot(*(static - lm).T)) < 1.5 for lm in nav.slam.landmarks())
+
+
 def test_static_worlds_only_differ_by_the_probation_of_new_landmarks(monkeypatch):
     """Mover handling costs static worlds little: the same successes, clearance within
     centimetres, the median final error within 0.2 m."""
