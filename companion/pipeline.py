@@ -451,7 +451,8 @@ def snapshot(pipeline: Pipeline) -> dict:
     if nav is not None:
         for oid, mean, cov in zip(nav.slam.landmark_ids(), nav.slam.landmarks(),
                                   nav.slam.landmark_covs()):
-            landmarks.append({"id": oid, "north_m": float(mean[0]), "east_m": float(mean[1]),
+            landmarks.append({"id": oid if oid is None or oid >= 0 else None,  # < 0: internal
+                              "north_m": float(mean[0]), "east_m": float(mean[1]),
                               "cov_m2": cov.tolist()})
     columns = ("t_s", "north_m", "east_m", "yaw_rad")
     track = {name: [row[i] for row in pipeline.track] for i, name in enumerate(columns)}
