@@ -379,14 +379,7 @@ class FailsafeConfig:
         _positive("obstacle_timeout_s", self.obstacle_timeout_s)
 
 
-@dataclass(frozen=True)
-class GoalConfig:
-    north_m: float
-    east_m: float
-    radius_m: float = 2.0
-
-    def __post_init__(self) -> None:
-        _positive("radius_m", self.radius_m)
+GoalConfig = Goal          # the service's goal section has the scenario's goal fields
 
 
 @dataclass(frozen=True)

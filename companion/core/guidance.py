@@ -117,16 +117,20 @@ def escape_heading(rel_pos: np.ndarray, to_goal: np.ndarray) -> float:
     return math.atan2(direction[1], direction[0])
 
 
+def toward_goal(pose: np.ndarray, goal: np.ndarray) -> tuple[float, float]:
+    """Distance (m) and heading (rad, LOCAL_NED yaw) from the pose to the goal."""
+    to_goal = goal - pose[:2]
+    return float(np.hypot(*to_goal)), math.atan2(to_goal[1], to_goal[0])
+
+
 def guide_cone(pose: np.ndarray, goal: np.ndarray, obstacles: np.ndarray,
                rel_covs: np.ndarray | None, params: GuidanceParams, t_s: float,
                obstacle_vels: np.ndarray | None = None) -> GuidanceCommand:
     """The paper's law: fly at the goal unless an obstacle is urgent, then deflect from it."""
     position = pose[:2]
-    to_goal = goal - position
-    goal_distance = float(np.hypot(*to_goal))
+    goal_distance, goal_heading = toward_goal(pose, goal)
     if goal_distance <= params.goal_radius_m:
         return GuidanceCommand(0.0, pose[2], "arrived")
-    goal_heading = math.atan2(to_goal[1], to_goal[0])
     speed = approach_speed(params, goal_distance)
     velocity = speed * np.array([math.cos(pose[2]), math.sin(pose[2])])
     threats = assess(position, velocity, obstacles, rel_covs, params, t_s, obstacle_vels)
@@ -134,7 +138,8 @@ def guide_cone(pose: np.ndarray, goal: np.ndarray, obstacles: np.ndarray,
     if threat is None:
         return GuidanceCommand(speed, goal_heading, "goal", threats=tuple(threats))
     if threat.verdict.kind == "inside":
-        heading = escape_heading(obstacles[threat.index] - position, to_goal)
+        heading = escape_heading(obstacles[threat.index] - position,
+                                 np.array([math.cos(goal_heading), math.sin(goal_heading)]))
         return GuidanceCommand(speed, heading, "escape", threat.index, 0.0, tuple(threats))
     deflection = params.eta * signed_angle(velocity, np.asarray(threat.verdict.aim))
     heading = wrap_angle(pose[2] + deflection)
@@ -151,11 +156,10 @@ def guide_apf(pose: np.ndarray, goal: np.ndarray, obstacles: np.ndarray,
     cancel (a local minimum), the vehicle stops. That trap is the method's known weakness, kept.
     """
     position = pose[:2]
-    to_goal = goal - position
-    goal_distance = float(np.hypot(*to_goal))
+    goal_distance, _ = toward_goal(pose, goal)
     if goal_distance <= params.goal_radius_m:
         return GuidanceCommand(0.0, pose[2], "arrived")
-    force = params.apf_attraction_gain * to_goal
+    force = params.apf_attraction_gain * (goal - position)
     for obstacle in obstacles:
         away = position - obstacle
         rho = float(np.hypot(*away))

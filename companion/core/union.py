@@ -28,7 +28,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from companion.core.geometry import wrap_angles
-from companion.core.guidance import GuidanceCommand, GuidanceParams, approach_speed, inflated_radius
+from companion.core.guidance import (GuidanceCommand, GuidanceParams, approach_speed,
+                                     inflated_radius, toward_goal)
 
 CANDIDATES = 720                      # heading grid, 0.5 degree
 SPEED_FRACTIONS = (1.0, 0.5, 0.25)
@@ -95,11 +96,9 @@ def guide_union(pose: np.ndarray, goal: np.ndarray, obstacles: np.ndarray,
                 velocities: np.ndarray | None = None) -> GuidanceCommand:
     """Pick a speed and heading outside every relevant cone; see the module docstring."""
     position = pose[:2]
-    to_goal = goal - position
-    goal_distance = float(np.hypot(*to_goal))
+    goal_distance, goal_heading = toward_goal(pose, goal)
     if goal_distance <= params.goal_radius_m:
         return GuidanceCommand(0.0, pose[2], "arrived")
-    goal_heading = math.atan2(to_goal[1], to_goal[0])
     radii = np.array([inflated_radius(params.safety_distance_m,
                                       None if rel_covs is None else rel_covs[i],
                                       params.inflation_sigmas) for i in range(len(obstacles))])
