@@ -40,6 +40,9 @@ from companion.core.navigator import Navigator
 
 log = logging.getLogger(__name__)
 
+# Beyond these, a finite value is still nonsense (no multicopter, no stereo camera): refused.
+PLAUSIBLE_SPEED_MPS = 50.0
+PLAUSIBLE_RANGE_M = 1000.0
 REBOOT_BACKSTEP_S = 1.0          # time_boot_ms stepping back more than this: the vehicle rebooted
 ATTITUDE_HISTORY = 32
 TIME_EPS_S = 1e-6
@@ -266,6 +269,11 @@ class Pipeline:
             self._count("odometry_without_attitude")
             return
         speed = math.hypot(lpn.vel_north_mps, lpn.vel_east_mps)
+        if math.isfinite(speed) and speed > max(PLAUSIBLE_SPEED_MPS,
+                                                5.0 * self.config.commanding.max_speed_mps):
+            # finite but absurd (3e38 m/s): it would blow the covariance up to inf and NaN
+            self._count("odometry_implausible_speed")
+            return
         if self.navigator is None:
             if not (math.isfinite(lpn.north_m) and math.isfinite(lpn.east_m)):
                 self._count("start_not_finite")
@@ -340,7 +348,12 @@ class Pipeline:
         if self.navigator is None:
             self._count("obstacle_before_estimator")
             return
-        reports = self.navigator.on_observations(frame.t_s, list(frame.observations))
+        observations = [o for o in frame.observations if o.range_m <= PLAUSIBLE_RANGE_M]
+        if len(observations) < len(frame.observations):
+            self._count("observation_implausible_range")
+            if not observations:
+                return
+        reports = self.navigator.on_observations(frame.t_s, observations)
         for report in reports:
             if report.action == "added":
                 log.info("new landmark %s (obstacle id %s)", report.landmark_index,
