@@ -49,11 +49,6 @@ class ReplayResult:
     notes: list = field(default_factory=list)
 
 
-def _wire(msg):
-    """A message as the receiver sees it (float32 fields): pack, then parse back."""
-    return codec.Parser().decode_packet(codec.Encoder(1, 191).encode(msg))
-
-
 def replay_tlog(path: str | Path, config: CompanionConfig,
                 progress: Callable[[int], None] | None = None) -> ReplayResult:
     """Replay one tlog; never raises on a damaged file (see ``stats`` and ``notes``)."""
@@ -79,10 +74,10 @@ def replay_tlog(path: str | Path, config: CompanionConfig,
         for output in pipeline.handle(record.t_us / 1e6, codec.decode(msg)):
             if isinstance(output, codec.VelocitySetpoint):
                 result.setpoints.append(output)
-                result.replayed_keys.append(codec.setpoint_key(_wire(codec.set_position_target(output))))
+                result.replayed_keys.append(codec.setpoint_key_of(output))
             elif isinstance(output, codec.PoseEstimate):
-                wire = _wire(codec.odometry(output))
-                result.replayed_poses[wire.time_usec] = (wire.x, wire.y)
+                result.replayed_poses[int(round(output.t_s * 1e6))] = (
+                    codec.float32(output.north_m), codec.float32(output.east_m))
     result.wall_s = time.perf_counter() - started
     _add_notes(result)
     return result

@@ -9,6 +9,7 @@ message used here with its fields and units.
 from __future__ import annotations
 
 import math
+import struct
 import os
 import time
 from dataclasses import dataclass
@@ -279,6 +280,22 @@ def set_position_target(sp: VelocitySetpoint) -> mavlink.MAVLink_set_position_ta
         ms_of(sp.t_s), sp.target_system, sp.target_component, mavlink.MAV_FRAME_LOCAL_NED,
         VELOCITY_YAW_TYPE_MASK, 0.0, 0.0, 0.0, sp.vel_north_mps, sp.vel_east_mps, 0.0,
         0.0, 0.0, 0.0, sp.yaw_rad, 0.0)
+
+
+_FLOAT32 = struct.Struct("<f")
+
+
+def float32(value: float) -> float:
+    """A float as a MAVLink float field carries it (IEEE single, round to nearest)."""
+    return _FLOAT32.unpack(_FLOAT32.pack(value))[0]
+
+
+def setpoint_key_of(sp: VelocitySetpoint) -> tuple:
+    """``setpoint_key`` of the message ``set_position_target(sp)`` once sent and parsed, without
+    packing it (replay compares thousands of them)."""
+    return (ms_of(sp.t_s), sp.target_system, sp.target_component, mavlink.MAV_FRAME_LOCAL_NED,
+            VELOCITY_YAW_TYPE_MASK, float32(sp.vel_north_mps), float32(sp.vel_east_mps), 0.0,
+            float32(sp.yaw_rad))
 
 
 def setpoint_key(msg) -> tuple:

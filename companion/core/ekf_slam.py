@@ -22,7 +22,6 @@ from typing import Iterable, Sequence
 
 import numpy as np
 from scipy.linalg.blas import dgemm
-from scipy.stats import chi2
 
 from companion.core.geometry import (move, move_jacobians, place_jacobians, wrap_angle,
                                      wrap_angles)
@@ -50,6 +49,14 @@ class SlamNoise:
         return np.diag([self.range_sigma_m ** 2, self.bearing_sigma_rad ** 2])
 
 
+def chi2_2dof_quantile(p: float) -> float:
+    """Chi-square quantile for 2 degrees of freedom, exactly: the CDF is 1 - exp(-x/2).
+
+    Written out so the daemon need not import scipy.stats (about 40 MB and 0.7 s of start-up).
+    """
+    return -2.0 * math.log1p(-p)
+
+
 @dataclass(frozen=True)
 class AssociationGates:
     """Gates on the normalised innovation squared (chi-square, 2 degrees of freedom).
@@ -59,9 +66,9 @@ class AssociationGates:
     ambiguous and dropped. ``outlier_nis`` rejects an id-associated observation that disagrees
     grossly with its landmark (a glitch, or a mover).
     """
-    accept_nis: float = float(chi2.ppf(0.99, 2))
-    new_landmark_nis: float = float(chi2.ppf(0.99999, 2))
-    outlier_nis: float = float(chi2.ppf(0.99999, 2))
+    accept_nis: float = chi2_2dof_quantile(0.99)
+    new_landmark_nis: float = chi2_2dof_quantile(0.99999)
+    outlier_nis: float = chi2_2dof_quantile(0.99999)
 
     def __post_init__(self) -> None:
         if not 0.0 < self.accept_nis <= self.new_landmark_nis:
@@ -399,7 +406,9 @@ class EkfSlam:
 
     # ------------------------------------------------------------- health
     def is_healthy(self) -> bool:
-        """Finite mean and covariance, covariance with a non-negative diagonal."""
-        mean, cov = self.mean, self.cov
-        return bool(np.all(np.isfinite(mean)) and np.all(np.isfinite(cov))
-                    and np.all(np.diag(cov) >= 0.0))
+        """Finite mean, finite non-negative covariance diagonal. O(n): it runs before every
+        decision; a NaN anywhere in the covariance reaches the mean and the diagonal at the
+        next update, through the gain."""
+        diag = np.diagonal(self._cov_buf)
+        return bool(np.isfinite(self._mean_buf).all() and np.isfinite(diag).all()
+                    and (diag >= 0.0).all())

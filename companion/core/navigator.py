@@ -280,7 +280,8 @@ class Navigator:
         are static, relative-position covariances (n,2,2), and a stable key per obstacle."""
         slam = self.slam
         landmarks = slam.landmarks()
-        rel_covs = slam.relative_covs()
+        rel_covs = slam.relative_covs() if self.params.inflation_sigmas > 0 else \
+            np.zeros((len(landmarks), 2, 2))
         keys: list = [("landmark", oid if oid is not None else i)
                       for i, oid in enumerate(slam.landmark_ids())]
         movers = self.movers.states(self.clock_s)

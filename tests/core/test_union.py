@@ -77,3 +77,27 @@ def test_mapped_obstacle_behind_does_not_block_and_far_ones_wait():
     assert behind.mode == "goal"
     far = guide_union(POSE, GOAL, np.array([[60.0, 0.0]]), None, PARAMS, UNION, None)
     assert far.mode == "goal"                 # beyond speed * lookahead: not relevant yet
+
+
+def test_plain_python_and_numpy_paths_choose_alike():
+    """Static obstacles take a plain-Python path for speed; the numpy path (used with movers)
+    must make the same choice on the same inputs."""
+    from companion.core.union import _choose_general, _choose_static
+    rng = np.random.default_rng(8)
+    compared = avoided = 0
+    for _ in range(400):
+        n = int(rng.integers(1, 7))
+        pose = np.array([0.0, 0.0, rng.uniform(-math.pi, math.pi)])
+        obstacles = rng.uniform([-5.0, -30.0], [40.0, 30.0], size=(n, 2))
+        radii = np.full(n, 10.0)
+        goal_heading = float(rng.uniform(-0.5, 0.5))
+        args = (pose, goal_heading, 150.0, 5.0, float(rng.uniform(-1, 1)), int(rng.integers(-1, 2)),
+                obstacles, radii, np.arange(n), PARAMS, UNION)
+        plain, vectorised = _choose_static(*args), _choose_general(*args, None)
+        assert plain.mode == vectorised.mode
+        assert plain.heading_rad == pytest.approx(vectorised.heading_rad, abs=1e-9)
+        assert plain.speed_mps == pytest.approx(vectorised.speed_mps, abs=1e-9)
+        assert (plain.urgent_index, plain.side) == (vectorised.urgent_index, vectorised.side)
+        compared += 1
+        avoided += plain.mode == "avoid"
+    assert compared == 400 and 50 < avoided < 400
