@@ -201,7 +201,8 @@ def _choose_static(pose: np.ndarray, goal_heading: float, goal_distance: float, 
     dominated there (44 us a decision, a quarter of a replay). Same rules, same candidates;
     tests/core/test_union.py checks both paths agree.
     """
-    px, py = float(pose[0]), float(pose[1])
+    px, py, yaw = float(pose[0]), float(pose[1]), float(pose[2])
+    reference = float(reference)             # numpy scalars would make every step below slow
     cones = []                                   # (bearing, half, inside, gap, index)
     for (north, east), radius, index in zip(obstacles.tolist(), radii.tolist(), near.tolist()):
         dist = math.hypot(north - px, east - py)
@@ -209,33 +210,42 @@ def _choose_static(pose: np.ndarray, goal_heading: float, goal_distance: float, 
         half = 0.5 * math.pi if inside else \
             min(params.eta * math.asin(min(radius / max(dist, 1e-9), 1.0)), 0.5 * math.pi)
         cones.append((math.atan2(east - py, north - px), half, inside, dist - radius, index))
+    two_pi = 2.0 * math.pi
     candidates = [goal_heading, reference, goal_heading + math.pi]
     for bearing, half, _, _, _ in cones:
         candidates += [bearing + half + EDGE_MARGIN_RAD, bearing - half - EDGE_MARGIN_RAD]
-    candidates = [float(wrap_angle(c)) for c in candidates]
-    offsets = [wrap_angle(c - goal_heading) for c in candidates]
-    costs = [abs(o) + union.hysteresis * abs(wrap_angle(c - reference))
-             + (math.pi if side and (o > 0) - (o < 0) == -side else 0.0)
-             for c, o in zip(candidates, offsets)]
+    candidates = [(c + math.pi) % two_pi - math.pi for c in candidates]
+    offsets = [(c - goal_heading + math.pi) % two_pi - math.pi for c in candidates]
+    costs = []
+    for c, o in zip(candidates, offsets):
+        cost = abs(o) + union.hysteresis * abs((c - reference + math.pi) % two_pi - math.pi)
+        if side and (o > 0) - (o < 0) == -side:
+            cost += math.pi
+        costs.append(cost)
     for fraction in SPEED_FRACTIONS:
         speed = cruise * fraction
         reach = min(speed * union.lookahead_s, goal_distance)
+        # (bearing, half-width, cone) of every sector that blocks at this speed
+        sectors = [(b, h, cone) for cone in cones for b, h, inside, gap, _ in (cone,)
+                   if inside or gap < reach]
 
-        def blocks(heading: float, cone: tuple) -> bool:
-            bearing, half, inside, gap, _ = cone
-            off = abs(wrap_angle(heading - bearing))
-            return off < 0.5 * math.pi if inside else (gap < reach and off < half)
-        free = [not any(blocks(c, cone) for cone in cones) for c in candidates]
+        def blocked(heading: float) -> bool:
+            for bearing, half, _ in sectors:
+                if abs((heading - bearing + math.pi) % two_pi - math.pi) < half:
+                    return True
+            return False
+        free = [not blocked(c) for c in candidates]
         if not any(free):
             continue
         if free[0]:
-            return GuidanceCommand(speed * turn_speed_factor(pose[2], goal_heading, union.fov_rad),
+            return GuidanceCommand(speed * turn_speed_factor(yaw, goal_heading, union.fov_rad),
                                    goal_heading, "goal")
         best = min((k for k in range(len(candidates)) if free[k]), key=lambda k: (costs[k], k))
         heading = candidates[best]
-        in_way = [cone for cone in cones if blocks(goal_heading, cone)]
+        in_way = [cone for bearing, half, cone in sectors
+                  if abs((goal_heading - bearing + math.pi) % two_pi - math.pi) < half]
         nearest = min(in_way, key=lambda cone: cone[3])
-        return GuidanceCommand(speed * turn_speed_factor(pose[2], heading, union.fov_rad), heading,
+        return GuidanceCommand(speed * turn_speed_factor(yaw, heading, union.fov_rad), heading,
                                "avoid", nearest[4], max(nearest[3], 0.0) / max(speed, 1e-9),
                                side=((offsets[best] > 0) - (offsets[best] < 0)) or 1)
-    return GuidanceCommand(0.0, pose[2], "hold")
+    return GuidanceCommand(0.0, yaw, "hold")
