@@ -164,8 +164,13 @@ class EkfSlam:
         return list(self._index_to_id)
 
     # --------------------------------------------------------------- predict
-    def predict(self, speed_mps: float, heading_change_rad: float, dt_s: float) -> None:
+    def predict(self, speed_mps: float, heading_change_rad: float, dt_s: float,
+                speed_var_scale: float = 1.0, heading_var_extra: float = 0.0) -> None:
         """Propagate through the motion model with the odometry control [v, gamma].
+
+        ``speed_var_scale`` multiplies the speed sample's variance, for a sample's interval
+        predicted in parts; ``heading_var_extra`` (rad^2) adds to the heading change's variance
+        (see Navigator.on_odometry).
 
         Touches only the vehicle rows and columns of the covariance: O(n), not O(n^2).
         Speed noise is per sample (a held sample's error persists over its dt); heading-change
@@ -193,8 +198,9 @@ class EkfSlam:
         (p00, p01, p02), (_, p11, p12), (_, _, p22) = cov[:3, :3].tolist()
         r00, r01, r02 = p00 + a * p02, p01 + a * p12, p02 + a * p22          # rows of F P
         r11, r12 = p11 + b * p12, p12 + b * p22
-        q_speed = self.noise.speed_sigma_mps ** 2 * dt_s * dt_s
-        q_turn = self.noise.heading_change_sigma_rad ** 2 * dt_s / self.noise.reference_dt_s
+        q_speed = self.noise.speed_sigma_mps ** 2 * speed_var_scale * dt_s * dt_s
+        q_turn = (self.noise.heading_change_sigma_rad ** 2 * dt_s / self.noise.reference_dt_s
+                  + heading_var_extra)
         n00 = r00 + a * r02 + c * c * q_speed + a * a * q_turn
         n01 = r01 + b * r02 + c * s * q_speed + a * b * q_turn
         n02 = r02 + a * q_turn

@@ -20,7 +20,7 @@ from companion.core.geometry import place, place_jacobians
 
 @dataclass(frozen=True)
 class MoverParams:
-    strikes_to_mover: int = 2            # consecutive outliers that demote a landmark to a mover
+    strikes_to_mover: int = 3            # consecutive outliers that demote an old landmark
     accel_sigma_mps2: float = 0.1        # white-acceleration process noise of the CV model
     initial_speed_sigma_mps: float = 2.0
     coast_s: float = 30.0                # delete a track unseen for this long (predicted meanwhile)

@@ -23,6 +23,7 @@ from companion.core.union import UnionParams, guide_union
 STRATEGIES = ("cone", "union", "apf")
 MAX_MOVER_SPEED_MPS = 3.0      # an id-less young landmark may have moved this fast...
 MOVED_GATE_M = 1.5             # ...plus this, between two sightings
+FRAME_TIMING_UNCERTAINTY_S = 0.05   # half an odometry period
 SAME_TIME_TOLERANCE_S = 1e-3
 MAX_PENDING_FRAMES = 8
 
@@ -41,6 +42,7 @@ class _Young:
     """A landmark on probation: its dead-reckoned world points and its last observation."""
     times: list = field(default_factory=list)
     points: list = field(default_factory=list)
+    sigmas: list = field(default_factory=list)          # each point's standard deviation, m
     last_obs: Observation | None = None
 
 
@@ -69,6 +71,9 @@ class Navigator:
         self._young: dict[int, _Young] = {}
         self.movers_detected = 0
         self._next_anonymous_id = -1
+        self._turn_rate_rad_s = 0.0
+        self._frame_timing_s = 0.0      # how far the heading used may be from the frame's time
+        self._point_sigma_m = math.hypot(noise.range_sigma_m, 40.0 * noise.bearing_sigma_rad)
         self.t_s: float | None = None          # time of the last odometry the filter has absorbed
         self._yaw_rad: float | None = None
         self._pending: deque[tuple[float, list[Observation]]] = deque()
@@ -93,9 +98,32 @@ class Navigator:
         if dt <= 0.0:
             self._reject("odometry_not_newer")
             return []
-        self.predict(speed_mps, wrap_angle(yaw_rad - self._yaw_rad), dt)
+        turn = wrap_angle(yaw_rad - self._yaw_rad)
+        # A frame captured inside this interval (its own odometry sample was lost) is observed
+        # at its time: predict to it on a pro-rata share of the interval, then the rest. The
+        # speed sample's error is one error over the whole interval; scaling its variance by
+        # dt / part keeps the parts' sum equal to the whole.
+        reports: list[UpdateReport] = []
+        start, cursor, turned = self.t_s, self.t_s, 0.0
+        while self._pending and self._pending[0][0] < t_s - SAME_TIME_TOLERANCE_S:
+            frame_t_s, observations = self._pending.popleft()
+            part = frame_t_s - cursor
+            if part > SAME_TIME_TOLERANCE_S:
+                # The heading at the frame's time is interpolated: the vehicle may have done the
+                # interval's turn early or late. Say so in the heading variance.
+                fraction = (frame_t_s - start) / dt
+                share = turn * part / dt
+                self.predict(speed_mps, share, part, speed_var_scale=dt / part,
+                             heading_var_extra=(2.0 * turn * fraction * (1.0 - fraction)) ** 2)
+                cursor, turned = frame_t_s, turned + share
+            self._frame_timing_s = FRAME_TIMING_UNCERTAINTY_S
+            reports.extend(self.observe(observations))
+            self._frame_timing_s = 0.0
+        rest = t_s - cursor
+        self.predict(speed_mps, turn - turned, rest,
+                     speed_var_scale=1.0 if cursor == start else dt / rest)
         self.t_s, self._yaw_rad = t_s, yaw_rad
-        return self._release()
+        return reports + self._release()
 
     def on_observations(self, t_s: float, observations: list[Observation]) -> list[UpdateReport]:
         """One camera frame captured at ``t_s``; waits if the odometry has not reached ``t_s``.
@@ -117,7 +145,11 @@ class Navigator:
                 valid.append(obs)
         observations = valid
         if self.t_s is not None and t_s <= self.t_s + SAME_TIME_TOLERANCE_S:
-            return self.observe(observations)
+            self._frame_timing_s = max(self.t_s - t_s, 0.0)       # late: placed with a later pose
+            try:
+                return self.observe(observations)
+            finally:
+                self._frame_timing_s = 0.0
         if len(self._pending) >= MAX_PENDING_FRAMES:
             self._pending.popleft()
             self._reject("frame_overflow")
@@ -133,10 +165,13 @@ class Navigator:
     def _reject(self, kind: str) -> None:
         self.rejected[kind] = self.rejected.get(kind, 0) + 1
 
-    def predict(self, speed_mps: float, heading_change_rad: float, dt_s: float) -> None:
-        self.slam.predict(speed_mps, heading_change_rad, dt_s)
+    def predict(self, speed_mps: float, heading_change_rad: float, dt_s: float,
+                speed_var_scale: float = 1.0, heading_var_extra: float = 0.0) -> None:
+        self.slam.predict(speed_mps, heading_change_rad, dt_s, speed_var_scale, heading_var_extra)
         self.clock_s += max(dt_s, 0.0)
         self._dr_pose = move(self._dr_pose, speed_mps, heading_change_rad, dt_s)
+        if dt_s > 0.0:
+            self._turn_rate_rad_s = abs(heading_change_rad) / dt_s
 
     def observe(self, observations: list[Observation]) -> list[UpdateReport]:
         """One camera frame: static landmarks update the SLAM state, movers only their tracks.
@@ -218,6 +253,10 @@ class Navigator:
         if young is not None and action in ("updated", "added", "outlier", "moved"):
             young.times.append(self.clock_s)
             young.points.append(place(self._dr_pose, np.array([obs.range_m, obs.bearing_rad])))
+            # A frame placed with an interpolated heading (its own odometry sample was lost) or
+            # with a later one (it came late) may be misplaced sideways while the vehicle turns.
+            young.sigmas.append(math.hypot(self._point_sigma_m, obs.range_m * self._turn_rate_rad_s
+                                           * self._frame_timing_s))
             young.last_obs = obs
 
     def _moved_young(self, dr_point: np.ndarray) -> int | None:
@@ -247,16 +286,17 @@ class Navigator:
     def _judge_young(self) -> list[UpdateReport]:
         params = self.mover_params
         noise = self.slam.noise
-        point_sigma = math.hypot(noise.range_sigma_m, 40.0 * noise.bearing_sigma_rad)
         detected = []
         for oid, young in list(self._young.items()):
             if self.clock_s - young.times[0] > params.probation_s:
                 del self._young[oid]             # watched long enough: static from now on
                 continue
-            moving = self._strikes.get(oid, 0) >= params.strikes_to_mover
-            if not moving and young.times[-1] - young.times[0] >= params.min_span_s:
+            # Only the motion test judges a young landmark: refused outliers early on are more
+            # often a poor pose at the frame's time (a lost sample under packet loss) than motion.
+            moving = False
+            if young.times[-1] - young.times[0] >= params.min_span_s:
                 velocity, sigma = apparent_velocity(np.array(young.times), np.array(young.points),
-                                                    point_sigma, noise.speed_sigma_mps,
+                                                    max(young.sigmas), noise.speed_sigma_mps,
                                                     noise.reference_dt_s)
                 speed = float(np.hypot(*velocity))
                 moving = speed > params.speed_threshold_mps and speed > params.speed_sigmas * sigma
