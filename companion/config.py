@@ -372,7 +372,7 @@ class FailsafeConfig:
     hold: velocity 0 at the current yaw; stop: send nothing (ArduCopter's GUID_TIMEOUT then stops).
     """
     safe_action: Literal["hold", "stop"] = "hold"
-    obstacle_timeout_s: float = 2.0           # camera silent this long (message time): stale
+    obstacle_timeout_s: float = 3.5           # camera silent this long (message time): stale
     require_camera: bool = True               # no camera seen at all counts as stale
 
     def __post_init__(self) -> None:
