@@ -265,8 +265,9 @@ async def run_demo(scenario_path: Path, scenario: Scenario, files: DemoFiles, sp
         children.append(await spawn("companion", companion_args, files.workdir))
         report = await ground_station(tcp_port, files, scenario, speedup, children, config)
     finally:
-        for child in reversed(children):
-            code = await asyncio.shield(child.stop())
+        # Stop the children together: one slow to exit must not double the wait for Ctrl-C.
+        codes = await asyncio.shield(asyncio.gather(*(child.stop() for child in children)))
+        for child, code in zip(children, codes):
             if code not in (0, -signal.SIGTERM):
                 log.warning("%s exited with %s", child.name, code)
     final = read_report(files.report) or report
