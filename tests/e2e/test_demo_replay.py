@@ -60,11 +60,25 @@ def test_replay_of_the_demo_reproduces_estimates_and_setpoints(demo, tmp_path):
     assert (tmp_path / "r.png").exists()
 
 
+def record_start_after(data: bytes, offset: int) -> int:
+    """The first tlog record boundary at or after ``offset`` (8-byte time, then a MAVLink
+    packet: v2 is 12 bytes plus payload, plus a 13-byte signature when flagged; v1 is 8 plus)."""
+    pos = 0
+    while pos < offset:
+        magic, length = data[pos + 8], data[pos + 9]
+        if magic == 0xFD:
+            pos += 8 + 12 + length + (13 if data[pos + 10] & 0x01 else 0)
+        else:
+            assert magic == 0xFE, f"not a record at {pos}"
+            pos += 8 + 8 + length
+    return pos
+
+
 def test_replay_of_a_cut_tlog_keeps_everything_before_the_cut(demo, tmp_path):
     out, _ = demo
     data = (out / "demo.tlog").read_bytes()
     cut = tmp_path / "cut.tlog"
-    cut.write_bytes(data[:len(data) // 2 + 5])
+    cut.write_bytes(data[:record_start_after(data, len(data) // 2) + 8 + 15])  # header and 5 payload bytes
     done = companion("replay", str(cut), "--config", str(out / "demo.config.yaml"),
                      "--json", str(tmp_path / "r.json"))
     assert done.returncode == 0, done.stderr
