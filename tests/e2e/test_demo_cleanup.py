@@ -15,17 +15,24 @@ from tests.e2e.support import REPO, wait_until
 
 def test_ctrl_c_stops_the_demo_and_both_children(tmp_path):
     keep = tmp_path / "work"
-    demo = subprocess.Popen([sys.executable, "-m", "companion", "demo", "--speedup", "1",
-                             "--keep", str(keep)], cwd=REPO, stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True)
+    # Output to a file, not a pipe: an unread pipe that fills up would block the demo itself.
+    log = tmp_path / "demo.out"
+    with open(log, "w") as out:
+        demo = subprocess.Popen([sys.executable, "-m", "companion", "demo", "--speedup", "1",
+                                 "--keep", str(keep)], cwd=REPO, stdout=out,
+                                stderr=subprocess.STDOUT, text=True)
     try:
         wait_until(lambda: (keep / "companion-report.json").exists(), 20.0,
                    "the companion to start")
         children = psutil.Process(demo.pid).children(recursive=True)
         assert len(children) >= 2
         demo.send_signal(signal.SIGINT)
-        code = demo.wait(timeout=15)
-        assert code == 130
+        try:
+            code = demo.wait(timeout=15)
+        except subprocess.TimeoutExpired:
+            raise AssertionError("demo still running 15 s after SIGINT:\n"
+                                 + log.read_text()[-3000:]) from None
+        assert code == 130, log.read_text()[-3000:]
         gone, alive = psutil.wait_procs(children, timeout=5)
         assert alive == []
     finally:
