@@ -318,9 +318,9 @@ class Pipeline:
         if not (np.all(np.isfinite(pose)) and np.all(np.isfinite(cov))):
             return
         self._last_pose_out_t_s = t_s
-        out.append(codec.PoseEstimate(t_s, float(pose[0]), float(pose[1]), float(pose[2]),
-                                      tuple(tuple(float(v) for v in row) for row in cov),
-                                      self.reset_counter))
+        north_m, east_m, yaw_rad = pose.tolist()
+        out.append(codec.PoseEstimate(t_s, north_m, east_m, yaw_rad,
+                                      tuple(map(tuple, cov.tolist())), self.reset_counter))
         # Tracked movers, for the ground station to see (docs/messages.md).
         for mover in self.navigator.movers.states(self.navigator.clock_s):
             if np.all(np.isfinite(mover.position_ne_m)):

@@ -315,30 +315,38 @@ class Navigator:
         nis = self.movers.update(track_id, self.clock_s, point, cov)
         return UpdateReport("mover", None, None, nis, obs.obstacle_id)
 
-    def obstacles(self) -> tuple[np.ndarray, np.ndarray | None, np.ndarray, list]:
-        """Everything guidance must avoid: positions (n,2), velocities (n,2) or None when all
-        are static, relative-position covariances (n,2,2), and a stable key per obstacle."""
+    def obstacles(self) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None, list]:
+        """Everything guidance must avoid: positions (n,2); velocities (n,2), or None when all
+        are static; relative-position covariances (n,2,2), or None when the safety distance is
+        not inflated; and the movers, whose rows follow the landmarks'."""
         slam = self.slam
         landmarks = slam.landmarks()
-        rel_covs = slam.relative_covs() if self.params.inflation_sigmas > 0 else \
-            np.zeros((len(landmarks), 2, 2))
-        keys: list = [("landmark", oid if oid is not None else i)
-                      for i, oid in enumerate(slam.landmark_ids())]
+        inflate = self.params.inflation_sigmas > 0
+        rel_covs = slam.relative_covs() if inflate else None
         movers = self.movers.states(self.clock_s)
         if not movers:
-            return landmarks, None, rel_covs, keys
-        pose_cov = slam.pose_cov[:2, :2]
+            return landmarks, None, rel_covs, movers
         positions = np.vstack([landmarks, [m.position_ne_m for m in movers]])
         velocities = np.vstack([np.zeros_like(landmarks), [m.velocity_ne_mps for m in movers]])
-        covs = np.concatenate([rel_covs, [m.position_cov + pose_cov for m in movers]])
-        keys += [("mover", m.track_id) for m in movers]
-        return positions, velocities, covs, keys
+        if inflate:
+            pose_cov = slam.pose_cov[:2, :2]
+            rel_covs = np.concatenate([rel_covs, [m.position_cov + pose_cov for m in movers]])
+        return positions, velocities, rel_covs, movers
+
+    def _key(self, index: int | None, movers: list) -> tuple | None:
+        """A stable name for obstacle row ``index``: landmark ids shift as movers leave the map."""
+        if index is None:
+            return None
+        landmarks = self.slam.landmark_count
+        if index >= landmarks:
+            return ("mover", movers[index - landmarks].track_id)
+        oid = self.slam.landmark_ids()[index]
+        return ("landmark", oid if oid is not None else index)
 
     def decide(self, t_s: float) -> tuple[GuidanceCommand, UrgencyChange | None]:
         """Guidance on the current estimate, and the urgency change it implies, if any."""
         pose = self.slam.pose
-        obstacles, velocities, covs, keys = self.obstacles()
-        rel_covs = covs if self.params.inflation_sigmas > 0 else None
+        obstacles, velocities, rel_covs, movers = self.obstacles()
         if self.strategy == "apf":
             command = guide_apf(pose, self.goal, obstacles, self.params)
         elif self.strategy == "union":
@@ -348,7 +356,7 @@ class Navigator:
         else:
             command = guide_cone(pose, self.goal, obstacles, rel_covs, self.params, t_s, velocities)
         self._last_heading = command.heading_rad
-        key = None if command.urgent_index is None else keys[command.urgent_index]
+        key = self._key(command.urgent_index, movers)
         change = None
         if key != self._urgent:
             self._urgent = key

@@ -135,6 +135,19 @@ def guide_union(pose: np.ndarray, goal: np.ndarray, obstacles: np.ndarray,
     if goal_distance <= params.goal_radius_m:
         return GuidanceCommand(0.0, pose[2], "arrived")
     cruise = approach_speed(params, goal_distance)
+    reference = pose[2] if previous_heading_rad is None else previous_heading_rad
+    if velocities is None and (rel_covs is None or params.inflation_sigmas <= 0.0):
+        # The common case, in plain Python (a handful of obstacles: numpy's call costs dominate).
+        px, py, d = float(pose[0]), float(pose[1]), params.safety_distance_m
+        reach = cruise * union.lookahead_s
+        near = [i for i, (north, east) in enumerate(obstacles.tolist())
+                if math.hypot(north - px, east - py) - d < reach]
+        if not near:
+            return GuidanceCommand(cruise * turn_speed_factor(pose[2], goal_heading, union.fov_rad),
+                                   goal_heading, "goal")
+        return _choose_static(pose, goal_heading, goal_distance, cruise, reference, side,
+                              obstacles[near], np.full(len(near), d), np.array(near), params,
+                              union)
     if rel_covs is None or params.inflation_sigmas <= 0.0:
         radii = np.full(len(obstacles), params.safety_distance_m)
     else:
@@ -149,7 +162,6 @@ def guide_union(pose: np.ndarray, goal: np.ndarray, obstacles: np.ndarray,
                                goal_heading, "goal")
     obstacles, radii = obstacles[near], radii[near]
     velocities = None if velocities is None or not np.any(velocities[near]) else velocities[near]
-    reference = pose[2] if previous_heading_rad is None else previous_heading_rad
     choose = _choose_static if velocities is None else _choose_general
     return choose(pose, goal_heading, goal_distance, cruise, reference, side, obstacles, radii,
                   near, params, union, velocities)
