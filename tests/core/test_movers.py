@@ -88,16 +88,22 @@ def test_mover_is_tracked_not_mapped_and_flight_stays_safe():
     assert outcome.summary["final_position_error_m"] < 2.0
 
 
-def test_young_mover_is_taken_out_of_the_map_without_touching_the_pose():
+def fly_north(scenario, steps: int = 250):
+    """Fly straight north at 5 m/s for ``steps`` steps of 0.1 s, camera at 5 Hz."""
     from companion.truth import TruthWorld
-    scenario = world_with_a_mover((0.0, 0.5))
     truth = TruthWorld(scenario, np.random.default_rng(1))
     nav = make_navigator(scenario)
-    for step in range(1, 250):
+    for step in range(1, steps):
         odo = truth.step(5.0, 0.0)
         nav.predict(odo.speed_mps, odo.heading_change_rad, 0.1)
         if step % 2 == 0:
             nav.observe(truth.observe())
+    return truth, nav
+
+
+def test_young_mover_is_taken_out_of_the_map_without_touching_the_pose():
+    scenario = world_with_a_mover((0.0, 0.5))
+    truth, nav = fly_north(scenario)
     assert 2 in nav.movers.by_obstacle_id
     assert 2 not in nav.slam.landmark_ids() and {1, 3} <= set(nav.slam.landmark_ids())
     assert nav.movers_detected >= 1
@@ -129,16 +135,9 @@ def test_schmidt_update_leaves_pose_and_other_landmarks_untouched():
 
 
 def test_anonymous_mover_is_found_from_the_stream_and_leaves_no_trail():
-    from companion.truth import TruthWorld
     scenario = world_with_a_mover((0.0, 0.8))
     scenario = dataclasses.replace(scenario, sensor=dataclasses.replace(scenario.sensor, report_ids=False))
-    truth = TruthWorld(scenario, np.random.default_rng(1))
-    nav = make_navigator(scenario)
-    for step in range(1, 250):
-        odo = truth.step(5.0, 0.0)
-        nav.predict(odo.speed_mps, odo.heading_change_rad, 0.1)
-        if step % 2 == 0:
-            nav.observe(truth.observe())
+    truth, nav = fly_north(scenario)
     assert nav.movers_detected >= 1 and len(nav.movers) == 1
     (mover,) = nav.movers.states(nav.clock_s)
     assert mover.obstacle_id is None                       # internal ids are never published
