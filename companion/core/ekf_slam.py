@@ -99,12 +99,12 @@ class EkfSlam:
     """
 
     def __init__(self, pose: Sequence[float], pose_cov: np.ndarray, noise: SlamNoise,
-                 gates: AssociationGates = AssociationGates(), capacity: int = 0) -> None:
+                 gates: AssociationGates = AssociationGates()) -> None:
         self.noise = noise
         self.gates = gates
         self._meas_cov = noise.measurement_cov()
         # Exact-size, C-contiguous arrays: the update writes the covariance in place through
-        # BLAS, which needs contiguous memory. ``capacity`` is accepted for compatibility only.
+        # BLAS, which needs contiguous memory.
         self._mean_buf = np.array(pose, dtype=float)
         self._mean_buf[2] = wrap_angle(self._mean_buf[2])
         self._cov_buf = np.array(pose_cov, dtype=float)

@@ -11,7 +11,7 @@ NOISE = SlamNoise(0.3, math.radians(0.02), 0.1, 0.1, math.radians(0.5))
 
 
 def make(pose=(0.0, 0.0, 0.0), sigma=0.01, noise=NOISE, gates=AssociationGates()):
-    return EkfSlam(np.array(pose), np.eye(3) * sigma ** 2, noise, gates, capacity=2)
+    return EkfSlam(np.array(pose), np.eye(3) * sigma ** 2, noise, gates)
 
 
 def test_predict_matches_hand_worked_step():
@@ -41,7 +41,7 @@ def test_update_matches_hand_worked_step():
 def test_matches_dense_textbook_filter_to_1e9():
     rng = np.random.default_rng(3)
     pose0, cov0 = np.array([1.0, 2.0, 0.3]), np.diag([0.2, 0.3, 0.01])
-    fast = EkfSlam(pose0, cov0, NOISE, AssociationGates(outlier_nis=1e12), capacity=1)
+    fast = EkfSlam(pose0, cov0, NOISE, AssociationGates(outlier_nis=1e12))
     dense = DenseEkfSlam(pose0, cov0, NOISE.speed_sigma_mps, NOISE.heading_change_sigma_rad,
                          NOISE.reference_dt_s, NOISE.range_sigma_m, NOISE.bearing_sigma_rad)
     landmarks = rng.uniform(-30, 30, size=(12, 2))
@@ -144,7 +144,7 @@ def test_nis_all_agrees_with_single_landmark_nis():
         assert nis[i] == pytest.approx(slam.nis_against(z, i)[0], rel=1e-9)
 
 
-def test_capacity_growth_keeps_state():
+def test_growing_the_map_keeps_state():
     slam = make()
     for i in range(20):
         slam.update(Observation(10.0 + i, 0.01 * i, i))

@@ -15,7 +15,7 @@ from tests.core.test_ekf_slam import NOISE
 
 
 def test_remove_landmark_is_the_marginal():
-    slam = EkfSlam(np.zeros(3), np.eye(3) * 0.01, NOISE, capacity=1)
+    slam = EkfSlam(np.zeros(3), np.eye(3) * 0.01, NOISE)
     for i, z in enumerate([(10, 0.1), (12, -0.3), (20, 0.5)]):
         slam.update(Observation(*z, obstacle_id=100 + i))
         slam.predict(2.0, 0.01, 0.1)
@@ -113,7 +113,7 @@ def test_young_mover_is_taken_out_of_the_map_without_touching_the_pose():
 
 
 def test_schmidt_update_leaves_pose_and_other_landmarks_untouched():
-    slam = EkfSlam(np.array([0.0, 0.0, 0.1]), np.eye(3) * 0.04, NOISE, capacity=0)
+    slam = EkfSlam(np.array([0.0, 0.0, 0.1]), np.eye(3) * 0.04, NOISE)
     slam.update(Observation(20.0, 0.2, 1))
     slam.update(Observation(25.0, -0.3, 2))
     slam.predict(3.0, 0.01, 0.1)
@@ -126,7 +126,7 @@ def test_schmidt_update_leaves_pose_and_other_landmarks_untouched():
     assert not np.array_equal(slam.mean[5:7], mean[5:7])
     assert np.linalg.eigvalsh(slam.cov).min() > -1e-12
     # The landmark's own variance shrinks, but less than the full (optimal) update would make it.
-    full = EkfSlam(np.array([0.0, 0.0, 0.1]), np.eye(3) * 0.04, NOISE, capacity=0)
+    full = EkfSlam(np.array([0.0, 0.0, 0.1]), np.eye(3) * 0.04, NOISE)
     full.update(Observation(20.0, 0.2, 1))
     full.update(Observation(25.0, -0.3, 2))
     full.predict(3.0, 0.01, 0.1)
