@@ -37,13 +37,15 @@ from companion.config import CompanionConfig, GoalConfig
 from companion.core.geometry import wrap_angle
 from companion.core.guidance import limit_turn
 from companion.core.navigator import Navigator
+from companion.safety.clock import VehicleClock
+from companion.safety.gate import SetpointGate, SetpointLimits
+from companion.safety.liveness import Liveness
 
 log = logging.getLogger(__name__)
 
 # Beyond these, a finite value is still nonsense (no multicopter, no stereo camera): refused.
 PLAUSIBLE_SPEED_MPS = 50.0
 PLAUSIBLE_RANGE_M = 1000.0
-REBOOT_BACKSTEP_S = 1.0          # time_boot_ms stepping back more than this: the vehicle rebooted
 ATTITUDE_HISTORY = 32
 TIME_EPS_S = 1e-6
 
@@ -101,17 +103,17 @@ class Pipeline:
         self.reset_counter = 0
         self.armed = False
         self.custom_mode: int | None = None
-        self._heartbeat_link_s: float | None = None
+        self.clock = VehicleClock()
+        self.liveness = Liveness(link.heartbeat_timeout_s, config.failsafe.obstacle_timeout_s,
+                                 config.failsafe.require_camera)
+        self.gate = SetpointGate(SetpointLimits(config.commanding.max_speed_mps))
         self._link_lost = False
         self._allowed = False
-        self._latest_t_s: float | None = None
         self._attitudes: deque[codec.Attitude] = deque(maxlen=ATTITUDE_HISTORY)
         self._held_position: codec.LocalPosition | None = None
         self._ap_yaw_rad: float | None = None       # autopilot yaw at the last odometry sample
         self._last_decision_t_s: float | None = None
         self._last_pose_out_t_s: float | None = None
-        self._last_camera_t_s: float | None = None
-        self._camera_alive_unstamped = False
         self._safe_reason: str | None = None
         self._safe_logged_commanding = False
         self.arrival_t_s: float | None = None
@@ -150,14 +152,18 @@ class Pipeline:
     @property
     def heartbeat_link_s(self) -> float | None:
         """Link time of the vehicle's last heartbeat."""
-        return self._heartbeat_link_s
+        return self.liveness.heartbeat_link_s
+
+    @property
+    def latest_t_s(self) -> float | None:
+        """The vehicle's latest believed time since boot."""
+        return self.clock.latest_t_s
 
     def commanding_allowed(self, t_link_s: float) -> bool:
         """Armed, in GUIDED, and the vehicle's heartbeat is fresh: setpoints may be sent."""
         return (self.vehicle is not None and self.armed
                 and self.custom_mode == self.config.link.guided_custom_mode
-                and self._heartbeat_link_s is not None
-                and t_link_s - self._heartbeat_link_s <= self.config.link.heartbeat_timeout_s)
+                and self.liveness.heartbeat_fresh(t_link_s))
 
     # ------------------------------------------------------------ identities
     def _from_vehicle_system(self, event) -> bool:
@@ -179,30 +185,25 @@ class Pipeline:
                 self._link_lost = False
                 log.info("vehicle heartbeat back: resync")
                 out.append(StreamsWanted("heartbeat back"))
-            self._heartbeat_link_s = t_link_s
+            self.liveness.on_vehicle_heartbeat(t_link_s)
             self.armed, self.custom_mode = hb.armed, hb.custom_mode
             self._note_allowed(t_link_s)
         elif self.vehicle is not None and hb.system_id == self.vehicle[0] \
                 and hb.component_id == link.camera_component_id:
-            self._on_camera_alive()
+            self.liveness.on_camera_heartbeat(self.clock.latest_t_s)
         elif hb.is_autopilot and (self.vehicle is None or hb.system_id != self.vehicle[0]):
             if hb.system_id not in self.other_vehicles:
                 self.other_vehicles.add(hb.system_id)
                 log.info("ignoring another vehicle: system %d", hb.system_id)
 
-    def _on_camera_alive(self) -> None:
-        """The camera's heartbeat has no time of its own: stamp it with the vehicle's latest."""
-        self._camera_alive_unstamped = self._latest_t_s is None
-        if self._latest_t_s is not None:
-            self._last_camera_t_s = self._latest_t_s
-
     def _check_heartbeat_age(self, t_link_s: float) -> None:
-        if self._heartbeat_link_s is None or self._link_lost:
+        last = self.liveness.heartbeat_link_s
+        if last is None or self._link_lost:
             return
-        if t_link_s - self._heartbeat_link_s > self.config.link.heartbeat_timeout_s:
+        if not self.liveness.heartbeat_fresh(t_link_s):
             self._link_lost = True
             log.warning("vehicle heartbeat lost for %.1f s: commanding stopped",
-                        t_link_s - self._heartbeat_link_s)
+                        t_link_s - last)
             self._note_allowed(t_link_s)
 
     def _note_allowed(self, t_link_s: float) -> None:
@@ -217,27 +218,25 @@ class Pipeline:
 
     # ------------------------------------------------------------ clock and odometry
     def _timed(self, t_s: float, out: list[Output]) -> bool:
-        """Track the vehicle clock; a big step back means a reboot: start the estimate afresh."""
-        if not math.isfinite(t_s):
-            self._count("time_not_finite")
+        """Track the vehicle clock (safety/clock.py); a reboot starts the estimate afresh."""
+        before = self.clock.latest_t_s
+        verdict = self.clock.on_autopilot(t_s)
+        if not verdict.accepted:
+            self._count(f"time_{verdict.reason}")
             return False
-        if self._latest_t_s is not None and t_s < self._latest_t_s - REBOOT_BACKSTEP_S:
+        if verdict.reason == "reboot":
             log.warning("vehicle time went back %.1f s -> %.1f s: reboot, estimate reset",
-                        self._latest_t_s, t_s)
+                        before, t_s)
             self.navigator = None
             self.reset_counter += 1
             self._attitudes.clear()
             self._held_position = None
             self._last_decision_t_s = self._last_pose_out_t_s = None
-            self._last_camera_t_s = None
-            self._latest_t_s = t_s
+            self.liveness.forget_camera()
             out.append(StreamsWanted("vehicle reboot"))
             out.append(codec.Notice(codec.SEVERITY_WARNING, "companion: vehicle reboot, map reset"))
             return True
-        self._latest_t_s = t_s if self._latest_t_s is None else max(self._latest_t_s, t_s)
-        if self._camera_alive_unstamped:
-            self._camera_alive_unstamped = False
-            self._last_camera_t_s = t_s
+        self.liveness.on_vehicle_time(t_s)
         return True
 
     def _attitude_at(self, t_s: float) -> float | None:
@@ -333,14 +332,13 @@ class Pipeline:
         if frame.component_id not in (self.vehicle[1], self.config.link.camera_component_id):
             self._count("ignored_other_source")
             return
-        if not math.isfinite(frame.t_s) or (self._latest_t_s is not None
-                                            and frame.t_s < self._latest_t_s - REBOOT_BACKSTEP_S):
+        if self.clock.frame_too_old(frame.t_s):
             # From before the vehicle's clock (a reboot not yet seen in its own messages, or a
             # glitch): it would be matched against the wrong pose. Reboots are detected on the
             # autopilot's messages only.
             self._count("obstacle_too_old")
             return
-        self._last_camera_t_s = frame.t_s
+        self.liveness.on_camera_frame(frame.t_s)
         if frame.rejected:
             self._count("obstacle_rejected")
             log.debug("obstacle report refused: %s", frame.rejected)
@@ -362,12 +360,6 @@ class Pipeline:
             self._decide(t_link_s, self.navigator.t_s, out)
 
     # ------------------------------------------------------------ guidance and commanding
-    def _camera_stale(self, t_s: float) -> bool:
-        failsafe = self.config.failsafe
-        if self._last_camera_t_s is None:
-            return failsafe.require_camera
-        return t_s - self._last_camera_t_s > failsafe.obstacle_timeout_s
-
     def _decide(self, t_link_s: float, t_s: float, out: list[Output]) -> None:
         self._last_decision_t_s = t_s
         nav = self.navigator
@@ -382,12 +374,13 @@ class Pipeline:
             log.info("arrived at the goal at %.1f s", t_s)
             out.append(Arrived(t_s))
             out.append(codec.Notice(codec.SEVERITY_NOTICE, "companion: goal reached"))
-        if self._camera_stale(t_s):
+        if self.liveness.camera_stale(t_s):
             self._safe(t_link_s, t_s, "obstacle data stale", out)
             return
         setpoint = self._setpoint(t_s, command.speed_mps, command.heading_rad, command.mode)
-        if setpoint is None:
-            self._safe(t_link_s, t_s, "non-finite setpoint", out)
+        verdict = self.gate.check(setpoint)
+        if not verdict.passed:
+            self._safe(t_link_s, t_s, f"setpoint refused ({verdict.reason})", out)
             return
         if self._safe_reason is not None:
             log.log(logging.WARNING if self._safe_logged_commanding else logging.INFO,
@@ -409,8 +402,6 @@ class Pipeline:
         heading_ap = wrap_angle(slam_yaw + change + (ap_yaw - slam_yaw))
         speed = min(max(speed_mps, 0.0), commanding.max_speed_mps)
         vn, ve = speed * math.cos(heading_ap), speed * math.sin(heading_ap)
-        if not all(math.isfinite(v) for v in (vn, ve, heading_ap, t_s)):
-            return None
         return codec.VelocitySetpoint(*self.vehicle, t_s, vn, ve, heading_ap, mode)
 
     def _safe(self, t_link_s: float, t_s: float, reason: str, out: list[Output]) -> None:
@@ -432,9 +423,15 @@ class Pipeline:
                                                         f"hold: {reason}"), out)
 
     def _send(self, t_link_s: float, setpoint: codec.VelocitySetpoint, out: list[Output]) -> None:
-        if self.commanding_allowed(t_link_s):
-            self.setpoints += 1
-            out.append(setpoint)
+        """The one place a setpoint leaves: commanding allowed, and passed by the gate."""
+        if not self.commanding_allowed(t_link_s):
+            return
+        verdict = self.gate.check(setpoint)
+        if not verdict.passed:
+            self._count(f"setpoint_refused: {verdict.reason}")
+            return
+        self.setpoints += 1
+        out.append(setpoint)
 
     def _on_urgency(self, change, out: list[Output]) -> None:
         if change.landmark_index is None:

@@ -85,11 +85,11 @@ def test_each_kind_of_bad_message_is_refused_and_counted_by_kind(primed, case, t
     before = rejections(pipeline)
     mean_before = pipeline.navigator.slam.mean.copy()
     build, counter = BAD[case]
-    msg, sysid, compid = build(pipeline._latest_t_s)
+    msg, sysid, compid = build(pipeline.latest_t_s)
     out = pipeline.handle(rest[0][0], codec.decode(_with_source(msg, sysid, compid)))
     if case == "position without attitude":     # held until the next position shows no attitude
         out += pipeline.handle(rest[0][0], codec.decode(_with_source(
-            position(pipeline._latest_t_s + 0.9), 1, 1)))
+            position(pipeline.latest_t_s + 0.9), 1, 1)))
     elif case.startswith("position") and case != "position not newer":
         # a position waits for the attitude of its own time: send it
         attitude = mavlink.MAVLink_attitude_message(msg.time_boot_ms, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)

@@ -219,7 +219,7 @@ def test_speed_is_clamped_to_the_configured_limit():
     feed.step()
     sp = p._setpoint(feed.t_s, 50.0, 0.0, "goal")
     assert math.hypot(sp.vel_north_mps, sp.vel_east_mps) == pytest.approx(8.0)
-    assert p._setpoint(feed.t_s, math.nan, 0.0, "goal") is None
+    assert not p.gate.check(p._setpoint(feed.t_s, math.nan, 0.0, "goal")).passed
 
 
 def test_position_waits_for_the_attitude_of_its_own_time():
