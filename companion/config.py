@@ -163,7 +163,7 @@ class AvoidanceConfig:
     safety_distance_m: float
     horizon_s: float
     eta: float
-    strategy: Literal["cone", "union", "apf"] = "cone"
+    strategy: Literal["cone", "union", "apf"] = "union"
     mission_time_s: float | None = None
     inflation_sigmas: float = 0.0
     approach_decel_mps2: float = 1.0
@@ -331,12 +331,18 @@ class StreamsConfig:
     ack_timeout_s: float = 1.0                # SET_MESSAGE_INTERVAL unanswered: retry, then fall back
     attempts: int = 3
     rerequest_after_s: float = 3.0            # no odometry this long after a request: ask again
+    rate_check_s: float = 5.0                 # measure each stream's rate over this (link time)
+    min_rate_fraction: float = 0.5            # measured below this share of the asked rate: ask again
+    max_reasserts: int = 5                    # at most this many in a row while the rate stays low
 
     def __post_init__(self) -> None:
         for key in ("attitude_rate_hz", "local_position_rate_hz", "ack_timeout_s",
-                    "rerequest_after_s"):
+                    "rerequest_after_s", "rate_check_s"):
             _positive(key, getattr(self, key))
         require(self.attempts >= 1, "attempts", self.attempts, "an integer >= 1")
+        require(0.0 < self.min_rate_fraction <= 1.0, "min_rate_fraction", self.min_rate_fraction,
+                "a fraction in (0, 1]")
+        require(self.max_reasserts >= 0, "max_reasserts", self.max_reasserts, "an integer >= 0")
 
 
 @dataclass(frozen=True)
@@ -379,6 +385,33 @@ class FailsafeConfig:
         _positive("obstacle_timeout_s", self.obstacle_timeout_s)
 
 
+@dataclass(frozen=True)
+class SafetyConfig:
+    """Clock evidence, the setpoint gate's limits beyond commanding.max_speed_mps, the start
+    pose's bounds and the STATUSTEXT limiter (docs/robustness.md)."""
+    clock_behind_tolerance_s: float = 1.0     # vehicle time back by less: reordering, accepted
+    clock_ahead_window_s: float = 1.0         # ahead by more: refused until confirmed
+    clock_evidence_messages: int = 5          # consecutive autopilot messages for a new clock
+    max_vertical_speed_mps: float = 2.5       # no setpoint climbs or sinks faster
+    max_yaw_rate_deg_s: float = 90.0          # no setpoint turns faster
+    max_position_m: float = 100_000.0         # start pose and position setpoints within this
+    statustext_repeat_s: float = 5.0          # the same text at most once per this
+    statustext_per_s: int = 2                 # and at most this many STATUSTEXT per second
+
+    def __post_init__(self) -> None:
+        for key in ("clock_behind_tolerance_s", "clock_ahead_window_s", "max_vertical_speed_mps",
+                    "max_yaw_rate_deg_s", "max_position_m", "statustext_repeat_s"):
+            _positive(key, getattr(self, key))
+        require(self.clock_evidence_messages >= 2, "clock_evidence_messages",
+                self.clock_evidence_messages, "an integer >= 2 (one message is never evidence)")
+        require(self.statustext_per_s >= 1, "statustext_per_s", self.statustext_per_s,
+                "an integer >= 1")
+
+    @property
+    def max_yaw_rate_rad_s(self) -> float:
+        return math.radians(self.max_yaw_rate_deg_s)
+
+
 GoalConfig = Goal          # the service's goal section has the scenario's goal fields
 
 
@@ -390,6 +423,7 @@ class CompanionConfig:
     streams: StreamsConfig = field(default_factory=StreamsConfig)
     commanding: CommandingConfig = field(default_factory=CommandingConfig)
     failsafe: FailsafeConfig = field(default_factory=FailsafeConfig)
+    safety: SafetyConfig = field(default_factory=SafetyConfig)
     goal: GoalConfig | None = None            # or --goal NORTH,EAST on the command line
 
     def guidance_params(self, goal_radius_m: float) -> GuidanceParams:

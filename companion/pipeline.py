@@ -28,6 +28,7 @@ import logging
 import math
 from array import array
 from collections import deque
+import dataclasses
 from dataclasses import asdict, dataclass
 
 import numpy as np
@@ -37,7 +38,7 @@ from companion.config import CompanionConfig, GoalConfig
 from companion.core.geometry import wrap_angle
 from companion.core.guidance import limit_turn
 from companion.core.navigator import Navigator
-from companion.safety.clock import VehicleClock
+from companion.safety.clock import ClockLimits, EpochCamera, VehicleClock
 from companion.safety.gate import SetpointGate, SetpointLimits
 from companion.safety.liveness import Liveness
 
@@ -46,7 +47,9 @@ log = logging.getLogger(__name__)
 # Beyond these, a finite value is still nonsense (no multicopter, no stereo camera): refused.
 PLAUSIBLE_SPEED_MPS = 50.0
 PLAUSIBLE_RANGE_M = 1000.0
+PLAUSIBLE_YAW_RATE_RAD_S = 20.0  # ArduCopter's fastest yaw is well under 10 rad/s
 ATTITUDE_HISTORY = 32
+CLOCK_EVIDENCE_EVENTS = 256      # events held while a new vehicle clock awaits its evidence
 TIME_EPS_S = 1e-6
 
 
@@ -103,10 +106,19 @@ class Pipeline:
         self.reset_counter = 0
         self.armed = False
         self.custom_mode: int | None = None
-        self.clock = VehicleClock()
+        safety = config.safety
+        self.clock = VehicleClock(ClockLimits(safety.clock_behind_tolerance_s,
+                                              safety.clock_ahead_window_s,
+                                              safety.clock_evidence_messages))
+        self.epoch_camera = EpochCamera()
         self.liveness = Liveness(link.heartbeat_timeout_s, config.failsafe.obstacle_timeout_s,
                                  config.failsafe.require_camera)
-        self.gate = SetpointGate(SetpointLimits(config.commanding.max_speed_mps))
+        self.gate = SetpointGate(SetpointLimits(
+            config.commanding.max_speed_mps, safety.max_vertical_speed_mps,
+            safety.max_yaw_rate_rad_s, safety.max_position_m))
+        # (candidate serial, t_link_s, event) refused on a clock that may yet be adopted
+        self._clock_evidence: deque[tuple[int, float, codec.Event]] = deque(
+            maxlen=CLOCK_EVIDENCE_EVENTS)
         self._link_lost = False
         self._allowed = False
         self._attitudes: deque[codec.Attitude] = deque(maxlen=ATTITUDE_HISTORY)
@@ -136,14 +148,14 @@ class Pipeline:
         elif not self._from_vehicle_system(event):
             self._count("ignored_other_source")
         elif isinstance(event, codec.Attitude) and self._is_vehicle(event):
-            if self._timed(event.t_s, out):
+            if self._timed(t_link_s, event, out) and self._plausible_attitude(event):
                 self._attitudes.append(event)
                 held = self._held_position
                 if held is not None and event.t_s >= held.t_s - TIME_EPS_S:
                     self._held_position = None
                     self._on_position(t_link_s, held, out)
         elif isinstance(event, codec.LocalPosition) and self._is_vehicle(event):
-            if self._timed(event.t_s, out):
+            if self._timed(t_link_s, event, out):
                 self._pair_position(t_link_s, event, out)
         elif isinstance(event, codec.ObstacleFrame):
             self._on_obstacles(t_link_s, event, out)
@@ -186,11 +198,12 @@ class Pipeline:
                 log.info("vehicle heartbeat back: resync")
                 out.append(StreamsWanted("heartbeat back"))
             self.liveness.on_vehicle_heartbeat(t_link_s)
+            self.clock.on_vehicle_heartbeat()
             self.armed, self.custom_mode = hb.armed, hb.custom_mode
             self._note_allowed(t_link_s)
         elif self.vehicle is not None and hb.system_id == self.vehicle[0] \
                 and hb.component_id == link.camera_component_id:
-            self.liveness.on_camera_heartbeat(self.clock.latest_t_s)
+            pass        # the camera's heartbeat is no obstacle data (safety/liveness.py)
         elif hb.is_autopilot and (self.vehicle is None or hb.system_id != self.vehicle[0]):
             if hb.system_id not in self.other_vehicles:
                 self.other_vehicles.add(hb.system_id)
@@ -217,26 +230,51 @@ class Pipeline:
                          self.custom_mode, "lost" if self._link_lost else "up")
 
     # ------------------------------------------------------------ clock and odometry
-    def _timed(self, t_s: float, out: list[Output]) -> bool:
-        """Track the vehicle clock (safety/clock.py); a reboot starts the estimate afresh."""
+    def _timed(self, t_link_s: float, event, out: list[Output]) -> bool:
+        """Judge an autopilot message's time (safety/clock.py). Refused stamps are counted; those
+        on a candidate clock are kept, and handled once that clock is adopted (reboot, jump)."""
         before = self.clock.latest_t_s
-        verdict = self.clock.on_autopilot(t_s)
+        verdict = self.clock.on_autopilot(event.t_s)
+        if verdict.reason == "ok":
+            self._clock_evidence.clear()
+            return True
         if not verdict.accepted:
             self._count(f"time_{verdict.reason}")
+            if verdict.reason != "not_finite":
+                self._clock_evidence.append((self.clock.candidate_serial, t_link_s, event))
             return False
+        serial = self.clock.candidate_serial
+        evidence = [(t, e) for s, t, e in self._clock_evidence if s == serial]
+        self._clock_evidence.clear()
         if verdict.reason == "reboot":
-            log.warning("vehicle time went back %.1f s -> %.1f s: reboot, estimate reset",
-                        before, t_s)
-            self.navigator = None
-            self.reset_counter += 1
-            self._attitudes.clear()
-            self._held_position = None
-            self._last_decision_t_s = self._last_pose_out_t_s = None
+            log.warning("vehicle time went back %.1f s -> %.1f s on %d messages and a heartbeat: "
+                        "reboot, estimate reset", before, event.t_s, len(evidence) + 1)
+            self._reset_estimate()
             self.liveness.forget_camera()
+            self.epoch_camera.forget()
             out.append(StreamsWanted("vehicle reboot"))
             out.append(codec.Notice(codec.SEVERITY_WARNING, "companion: vehicle reboot, map reset"))
-            return True
-        self.liveness.on_vehicle_time(t_s)
+        else:
+            log.warning("vehicle time jumped ahead %.1f s -> %.1f s on %d messages: accepted",
+                        before, event.t_s, len(evidence) + 1)
+        for t_link_held, held in evidence:
+            out.extend(self.handle(t_link_held, held))
+        self.clock.settle(event.t_s)
+        return True
+
+    def _reset_estimate(self) -> None:
+        self.navigator = None
+        self.reset_counter += 1
+        self._attitudes.clear()
+        self._held_position = None
+        self._last_decision_t_s = self._last_pose_out_t_s = None
+
+    def _plausible_attitude(self, att: codec.Attitude) -> bool:
+        if not (math.isfinite(att.yaw_rad) and abs(att.yaw_rad) <= 2.0 * math.pi
+                and math.isfinite(att.yaw_rate_rad_s)
+                and abs(att.yaw_rate_rad_s) <= PLAUSIBLE_YAW_RATE_RAD_S):
+            self._count("attitude_implausible")
+            return False
         return True
 
     def _attitude_at(self, t_s: float) -> float | None:
@@ -246,8 +284,7 @@ class Pipeline:
                 gap = t_s - att.t_s
                 if gap > self.config.commanding.max_attitude_age_s:
                     return None
-                rate = att.yaw_rate_rad_s if math.isfinite(att.yaw_rate_rad_s) else 0.0
-                return wrap_angle(att.yaw_rad + rate * max(gap, 0.0))
+                return wrap_angle(att.yaw_rad + att.yaw_rate_rad_s * max(gap, 0.0))
         return None
 
     def _pair_position(self, t_link_s: float, lpn: codec.LocalPosition, out: list[Output]) -> None:
@@ -274,8 +311,13 @@ class Pipeline:
             self._count("odometry_implausible_speed")
             return
         if self.navigator is None:
-            if not (math.isfinite(lpn.north_m) and math.isfinite(lpn.east_m)):
+            if not (math.isfinite(lpn.north_m) and math.isfinite(lpn.east_m)
+                    and math.isfinite(yaw)):
                 self._count("start_not_finite")
+                return
+            limit_m = self.config.safety.max_position_m
+            if abs(lpn.north_m) > limit_m or abs(lpn.east_m) > limit_m:
+                self._count("start_implausible")
                 return
             self.navigator = self._make_navigator(lpn.north_m, lpn.east_m, yaw)
             self.started_t_s = lpn.t_s
@@ -332,17 +374,24 @@ class Pipeline:
         if frame.component_id not in (self.vehicle[1], self.config.link.camera_component_id):
             self._count("ignored_other_source")
             return
-        if self.clock.frame_too_old(frame.t_s):
-            # From before the vehicle's clock (a reboot not yet seen in its own messages, or a
-            # glitch): it would be matched against the wrong pose. Reboots are detected on the
-            # autopilot's messages only.
-            self._count("obstacle_too_old")
+        frame = self._in_vehicle_time(frame, out)
+        if frame is None:
             return
-        self.liveness.on_camera_frame(frame.t_s)
+        verdict = self.clock.check_frame(frame.t_s)
+        if not verdict.accepted:
+            # Before the vehicle's clock (a reboot not yet seen in its own messages, or a
+            # glitch) or ahead of it: it would be matched against the wrong pose.
+            self._count("obstacle_time_ahead" if verdict.reason == "ahead" else "obstacle_too_old")
+            if self.clock.near_candidate(frame.t_s):
+                self._clock_evidence.append((self.clock.candidate_serial, t_link_s, frame))
+            return
         if frame.rejected:
             self._count("obstacle_rejected")
             log.debug("obstacle report refused: %s", frame.rejected)
             return
+        self.liveness.on_camera_frame(frame.t_s, self.clock.latest_t_s)
+        if not frame.observations:
+            return                  # an empty frame: the camera is live and sees nothing
         if self.navigator is None:
             self._count("obstacle_before_estimator")
             return
@@ -359,12 +408,34 @@ class Pipeline:
         if reports and self.goal is not None:
             self._decide(t_link_s, self.navigator.t_s, out)
 
+    def _in_vehicle_time(self, frame: codec.ObstacleFrame,
+                         out: list[Output]) -> codec.ObstacleFrame | None:
+        """A frame stamped in Unix time (OBSTACLE_DISTANCE allows it), moved to vehicle time by
+        the offset of the first such frame; refused while the vehicle's clock is unknown."""
+        if not self.epoch_camera.is_epoch(frame.t_s):
+            return frame
+        first = self.epoch_camera.offset_s is None
+        t_s = self.epoch_camera.to_vehicle_time(frame.t_s, self.clock.latest_t_s)
+        if t_s is None:
+            self._count("obstacle_epoch_before_clock")
+            return None
+        if first:
+            log.warning("camera stamps obstacle reports in Unix time: mapped to vehicle time by "
+                        "the offset seen now (%.3f s)", self.epoch_camera.offset_s)
+            out.append(codec.Notice(
+                codec.SEVERITY_WARNING, "companion: camera in Unix time, offset mapped"))
+        return dataclasses.replace(frame, t_s=t_s)
+
     # ------------------------------------------------------------ guidance and commanding
     def _decide(self, t_link_s: float, t_s: float, out: list[Output]) -> None:
         self._last_decision_t_s = t_s
         nav = self.navigator
         if not nav.slam.is_healthy():
             self._safe(t_link_s, t_s, "estimator diverged", out)
+            # restart from the next good sample rather than hold for good
+            log.error("estimator diverged at %.1f s: restarting from the next sample", t_s)
+            self._count("estimator_restarts")
+            self._reset_estimate()
             return
         command, change = nav.decide(t_s)
         if change is not None:

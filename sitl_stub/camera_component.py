@@ -9,7 +9,8 @@ HEARTBEAT_INTERVAL_S = 1.0
 
 
 class CameraComponent:
-    """Publishes OBSTACLE_DISTANCE_3D (and optionally OBSTACLE_DISTANCE) at sensor.rate_hz.
+    """Publishes OBSTACLE_DISTANCE_3D (and optionally OBSTACLE_DISTANCE) at sensor.rate_hz; a
+    frame with no detection is an OBSTACLE_DISTANCE with every sector empty.
 
     Frames are captured on physics steps: the first step at or after each nominal frame time.
     All reports of one frame share that step's time_boot_ms. Reporting does not depend on
@@ -36,7 +37,10 @@ class CameraComponent:
             self.last_frame = detections
             for det in detections:
                 out.append((tm.COMP_CAMERA, tm.obstacle_distance_3d(det, t_s, self.cfg)))
-            if self.cfg.sector_message:
+            if self.cfg.sector_message or not detections:
+                # Nothing seen is still a frame: an OBSTACLE_DISTANCE with every sector at
+                # max_distance + 1, as depth cameras send it, so the receiver knows the camera
+                # is live (its heartbeat alone says nothing about its data).
                 out.append((tm.COMP_CAMERA, tm.obstacle_distance(detections, t_s, self.cfg)))
             self._next_frame_s = _advance(self._next_frame_s, self._frame_interval_s, t_s)
         return out

@@ -52,7 +52,7 @@ class Feed:
             self.armed, self.mode = heartbeat.armed, heartbeat.custom_mode
             out += self.send(heartbeat)
         if self.camera_alive and self.steps % 10 == 0:
-            out += self.send(codec.Heartbeat(self.sysid, 100, 30, False, False, 0))
+            out += self.send(codec.ObstacleFrame(self.sysid, 100, self.t_s, ()))  # empty frame
         out += self.send(codec.Attitude(self.sysid, 1, self.t_s, yaw_rad, 0.0), 0.05)
         out += self.send(codec.LocalPosition(self.sysid, 1, self.t_s, self.north_m, 0.0,
                                              speed_mps * math.cos(yaw_rad),
@@ -71,7 +71,7 @@ def setpoints(outputs):
 def started(require_camera=False, **kw):
     feed = Feed(Pipeline(config(require_camera=require_camera, **kw), GOAL, record_track=True))
     feed.send(hb())
-    feed.send(codec.Heartbeat(1, 100, 30, False, False, 0))     # the camera
+    feed.send(codec.ObstacleFrame(1, 100, feed.t_s, ()))       # the camera: an empty frame
     return feed
 
 
@@ -162,13 +162,13 @@ def test_stale_camera_holds_then_resumes(caplog):
     feed = started(require_camera=True, obstacle_timeout_s=1.0)
     feed.camera_alive = False
     feed.step()
-    assert setpoints(feed.outputs)[-1].vel_north_mps > 0     # camera heartbeat counted
+    assert setpoints(feed.outputs)[-1].vel_north_mps > 0     # the empty frame counted
     with caplog.at_level(logging.ERROR, logger="companion.pipeline"):
         for _ in range(15):
             feed.step()
     assert setpoints(feed.outputs)[-1].reason == "hold: obstacle data stale"
     assert "obstacle data stale" in caplog.text
-    feed.send(codec.Heartbeat(1, 100, 30, False, False, 0))
+    feed.send(codec.ObstacleFrame(1, 100, feed.t_s, ()))
     feed.step()
     assert setpoints(feed.outputs)[-1].reason == "goal"
 
@@ -187,14 +187,36 @@ def test_heartbeat_loss_on_the_link_clock_stops_setpoints_and_return_resyncs():
     assert len(setpoints(feed.outputs)) == n + 1
 
 
-def test_reboot_resets_the_estimate():
+def test_one_stamp_back_is_dropped_not_a_reboot():
+    feed = started()
+    for _ in range(5):
+        feed.step()
+    nav, t_s = feed.p.navigator, feed.t_s
+    feed.t_s = 0.5
+    out = feed.step(heartbeat=hb())            # ATTITUDE and position behind, and a heartbeat
+    assert StreamsWanted("vehicle reboot") not in out and feed.p.reset_counter == 0
+    assert feed.p.counters["time_behind"] == 2
+    feed.t_s = t_s
+    feed.step()
+    assert feed.p.navigator is nav and feed.p.latest_t_s == pytest.approx(t_s + 0.1)
+
+
+def test_reboot_needs_consecutive_messages_and_a_heartbeat_then_resets_from_the_first():
     feed = started()
     for _ in range(5):
         feed.step()
     feed.t_s = 0.5
-    out = feed.step()
+    feed.steps = 1                               # no heartbeat of the Feed's own for a while
+    for _ in range(4):                           # 8 messages on the new clock, no heartbeat
+        out = feed.step()
+        assert StreamsWanted("vehicle reboot") not in out
+    assert feed.p.reset_counter == 0
+    out = feed.send(hb())                        # the vehicle's heartbeat, then one more message
+    out += feed.step()
     assert StreamsWanted("vehicle reboot") in out and feed.p.reset_counter == 1
-    assert feed.p.navigator.t_s == pytest.approx(0.6)
+    # the evidence was handled again after the reset: the estimate starts at its first sample
+    assert feed.p.started_t_s == pytest.approx(0.6)
+    assert feed.p.navigator.t_s == pytest.approx(1.0)
 
 
 def test_arrival_is_reported_and_the_vehicle_told_to_stop():
