@@ -17,6 +17,9 @@ from companion.core.union import UnionParams
 from companion.errors import ConfigError
 
 
+PLAUSIBLE_SPEED_MPS = 50.0       # faster is no multicopter (the pipeline refuses such odometry)
+
+
 def _positive(key: str, value: float) -> None:
     require(value > 0.0, key, value, "a value > 0")
 
@@ -109,6 +112,8 @@ class VehicleConfig:
     def __post_init__(self) -> None:
         for key in ("speed_mps", "max_turn_rate_deg_s", "max_accel_mps2", "dt_s"):
             _positive(key, getattr(self, key))
+        require(self.speed_mps <= PLAUSIBLE_SPEED_MPS, "speed_mps", self.speed_mps,
+                f"a multicopter speed <= {PLAUSIBLE_SPEED_MPS:g} m/s")
 
     @property
     def max_turn_rate_rad_s(self) -> float:
@@ -359,6 +364,8 @@ class CommandingConfig:
         for key in ("cruise_speed_mps", "max_speed_mps", "max_turn_rate_deg_s", "setpoint_rate_hz",
                     "odometry_rate_hz", "max_attitude_age_s"):
             _positive(key, getattr(self, key))
+        require(self.max_speed_mps <= PLAUSIBLE_SPEED_MPS, "max_speed_mps", self.max_speed_mps,
+                f"a multicopter speed <= {PLAUSIBLE_SPEED_MPS:g} m/s")
         require(self.cruise_speed_mps <= self.max_speed_mps, "cruise_speed_mps",
                 self.cruise_speed_mps, f"a speed <= max_speed_mps ({self.max_speed_mps})")
 

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 import types
 import typing
 from pathlib import Path
@@ -32,15 +33,70 @@ def require(condition: bool, key: str, value: Any, expected: str) -> None:
         raise FieldError(key, f"expected {expected}, got {value!r}")
 
 
+# Beyond this a number in a config is a typo or an attack (1e300 m/s), whatever the key.
+MAX_MAGNITUDE = 1e7
+
+
+class _Loader(yaml.SafeLoader):
+    """SafeLoader that reads ``1e3`` as a number (YAML 1.2; PyYAML's YAML 1.1 rule wants a dot
+    and a signed exponent and reads it as the string '1e3'). Duplicate keys: parse_yaml."""
+
+
+_Loader.yaml_implicit_resolvers = {k: list(v) for k, v in yaml.SafeLoader.yaml_implicit_resolvers.items()}
+_Loader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"^[-+]?(?:[0-9][0-9_]*)(?:\.[0-9_]*)?[eE][-+]?[0-9]+$"),
+    list("-+0123456789"))
+
+
+class DuplicateKey(yaml.YAMLError):
+    def __init__(self, key: Any, mark) -> None:
+        super().__init__()
+        self.key, self.problem_mark = key, mark
+        self.problem = f"duplicate key {key!r}"
+
+
+def _find_duplicate(node, path: str = "") -> None:
+    """Raise DuplicateKey naming the key path of the first key given twice in a mapping."""
+    if isinstance(node, yaml.MappingNode):
+        seen = set()
+        for key_node, value_node in node.value:
+            key = key_node.value if isinstance(key_node, yaml.ScalarNode) else None
+            key_path = f"{path}.{key}" if path else str(key)
+            if key is not None and key in seen:
+                raise DuplicateKey(key_path, key_node.start_mark)
+            seen.add(key)
+            _find_duplicate(value_node, key_path)
+    elif isinstance(node, yaml.SequenceNode):
+        for i, item in enumerate(node.value):
+            _find_duplicate(item, f"{path}[{i}]")
+
+
+def parse_yaml(text: str):
+    """YAML text -> data, with :class:`_Loader`'s rules (raises yaml.YAMLError)."""
+    _find_duplicate(yaml.compose(text, Loader=_Loader))
+    return yaml.load(text, Loader=_Loader)  # noqa: S506 - a SafeLoader subclass
+
+
 def read_yaml(path: str | Path) -> dict:
     """Read a YAML file that must hold a mapping; errors name the file."""
     path = Path(path)
     try:
-        text = path.read_text()
+        raw = path.read_bytes()
     except OSError as exc:
         raise ConfigError(f"{path}: cannot read: {exc.strerror or exc}") from None
     try:
-        data = yaml.safe_load(text)
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = raw[:exc.start].count(b"\n") + 1
+        raise ConfigError(f"{path}: not UTF-8 text (byte 0x{raw[exc.start]:02x} on line "
+                          f"{line})") from None
+    try:
+        data = parse_yaml(text)
+    except DuplicateKey as exc:
+        mark = exc.problem_mark
+        raise ConfigError(f"{path}: {exc.key}: duplicate key (line {mark.line + 1}); "
+                          "each key may appear once") from None
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f" (line {mark.line + 1}, column {mark.column + 1})" if mark else ""
@@ -77,6 +133,12 @@ def build(cls: type, data: Any, file: str | Path, path: str = "") -> Any:
         raise ConfigError(f"{file}: {_join(path, exc.key)}: {exc.problem}") from None
 
 
+def _check_magnitude(value: float, file: str | Path, path: str) -> None:
+    if abs(value) > MAX_MAGNITUDE:
+        raise ConfigError(f"{file}: {path}: expected a number of sane magnitude "
+                          f"(|value| <= {MAX_MAGNITUDE:g}), got {value!r}")
+
+
 def _join(path: str, key: str) -> str:
     return f"{path}.{key}" if path else key
 
@@ -110,10 +172,14 @@ def _convert(hint: Any, value: Any, file: str | Path, path: str) -> Any:
             raise ConfigError(f"{file}: {path}: expected a number, got {_describe(value)}")
         if not math.isfinite(value):
             raise ConfigError(f"{file}: {path}: expected a finite number, got {value!r}")
+        _check_magnitude(value, file, path)
         return float(value)
     if hint is int:
+        if isinstance(value, float) and value.is_integer() and abs(value) <= MAX_MAGNITUDE:
+            value = int(value)                        # 1e3 written for an integer
         if isinstance(value, bool) or not isinstance(value, int):
             raise ConfigError(f"{file}: {path}: expected an integer, got {_describe(value)}")
+        _check_magnitude(value, file, path)
         return value
     if hint is bool:
         if not isinstance(value, bool):

@@ -177,6 +177,18 @@ class Pipeline:
                 and self.custom_mode == self.config.link.guided_custom_mode
                 and self.liveness.heartbeat_fresh(t_link_s))
 
+    def stop_setpoint(self, t_link_s: float) -> list[Output]:
+        """Zero velocity at the current yaw, through the gate, if commanding (on shutdown)."""
+        out: list[Output] = []
+        if self.vehicle is None or self.clock.latest_t_s is None:
+            return out
+        yaw = self._ap_yaw_rad
+        if yaw is None and self._attitudes:
+            yaw = self._attitudes[-1].yaw_rad
+        self._send(t_link_s, codec.VelocitySetpoint(
+            *self.vehicle, self.clock.latest_t_s, 0.0, 0.0, wrap_angle(yaw or 0.0), "stop"), out)
+        return out
+
     # ------------------------------------------------------------ identities
     def _from_vehicle_system(self, event) -> bool:
         return self.vehicle is not None and event.system_id == self.vehicle[0]

@@ -8,16 +8,18 @@ sending. Tasks, one job each:
   receive    the link's transport (TCP reconnects)
   estimate   inbox -> tlog -> codec -> pipeline -> send
   heartbeat  our HEARTBEAT at link.heartbeat_rate_hz
-  watchdog   logs vehicle-heartbeat loss; asks for streams again when odometry stays away
+  watchdog   logs vehicle-heartbeat loss; asks for streams again when odometry stays away or
+             arrives slower than asked (bounded); reports suppressed STATUSTEXTs
   streams    SET_MESSAGE_INTERVAL (acked, retried), else REQUEST_DATA_STREAM
   tlog       flush twice a second
-  stop       SIGINT/SIGTERM -> ShutdownRequested
+  stop       SIGINT/SIGTERM -> one stop setpoint if commanding -> ShutdownRequested
 """
 from __future__ import annotations
 
 import asyncio
 import json
 import logging
+import math
 import os
 import signal
 from dataclasses import asdict
@@ -32,6 +34,8 @@ from companion.config import CompanionConfig, config_to_dict, read_signing_key
 from companion.errors import ShutdownRequested
 from companion.pipeline import Arrived, NavigatorStarted, Pipeline, StreamsWanted, snapshot
 from companion.report import _clean
+from companion.safety.notices import NoticeLimiter
+from companion.stream_rates import StreamRateWatch
 
 log = logging.getLogger(__name__)
 
@@ -71,6 +75,12 @@ class Service:
         self.acks: asyncio.Queue[codec.CommandAck] = asyncio.Queue(maxsize=16)
         self.stop = asyncio.Event()
         self._odometry_seen = asyncio.Event()
+        streams = config.streams
+        self.rates = StreamRateWatch({msg_id: getattr(streams, key) for msg_id, key in STREAMS},
+                                     streams.rate_check_s, streams.min_rate_fraction,
+                                     streams.max_reasserts)
+        self.notices = NoticeLimiter(config.safety.statustext_repeat_s,
+                                     config.safety.statustext_per_s)
         if tlog is not None:
             link.on_sent = tlog.write
         link.on_connect = self.streams_wanted.set
@@ -88,6 +98,10 @@ class Service:
                 self.acks.put_nowait(event)
             elif isinstance(event, codec.LocalPosition):
                 self._odometry_seen.set()
+            if isinstance(event, (codec.Attitude, codec.LocalPosition)) and pipeline.vehicle == (
+                    event.system_id, event.component_id):
+                self.rates.on_message(codec.MSG_ID_ATTITUDE if isinstance(event, codec.Attitude)
+                                      else codec.MSG_ID_LOCAL_POSITION_NED)
             for output in pipeline.handle(received.t_us / 1e6, event):
                 await self._dispatch(output)
 
@@ -100,7 +114,7 @@ class Service:
         elif isinstance(output, codec.PoseEstimate):
             link.send(codec.odometry(output))
         elif isinstance(output, codec.Notice):
-            link.send(codec.statustext(output))
+            self._send_notice(output)
         elif isinstance(output, codec.MoverReport):
             link.send(codec.mover_obstacle(output))
         elif isinstance(output, StreamsWanted):
@@ -108,6 +122,26 @@ class Service:
             self.streams_wanted.set()
         elif isinstance(output, (NavigatorStarted, Arrived)) and self.report_path:
             await asyncio.to_thread(write_json_atomic, self.report_path, self.report())
+
+    def _send_notice(self, notice: codec.Notice) -> None:
+        if self.notices.admit(notice.text, self.link.now_us() / 1e6):
+            self.link.send(codec.statustext(notice))
+        else:
+            log.debug("STATUSTEXT suppressed: %s", notice.text)
+
+    def _check_rates(self) -> None:
+        now_s = self.link.now_us() / 1e6
+        text = self.notices.take_suppressed_report(now_s)
+        if text is not None:
+            log.warning("%s (STATUSTEXT limit)", text)
+            self.link.send(codec.statustext(codec.Notice(codec.SEVERITY_INFO, text)))
+        if self.pipeline.vehicle is None or not self._odometry_seen.is_set():
+            return                        # request_streams is still asking
+        again = self.rates.check(now_s)
+        if again:
+            log.warning("streams %s below %.0f%% of the asked rate: asking again",
+                        ", ".join(str(m) for m in again), 100 * self.config.streams.min_rate_fraction)
+            self.streams_wanted.set()
 
     async def send_heartbeats(self) -> None:
         period_s = 1.0 / self.config.link.heartbeat_rate_hz
@@ -122,6 +156,7 @@ class Service:
         silent = False
         while True:
             await asyncio.sleep(WATCHDOG_INTERVAL_S)
+            self._check_rates()
             last = self.pipeline.heartbeat_link_s
             if last is None:
                 continue
@@ -143,6 +178,7 @@ class Service:
             self._odometry_seen.clear()
             for msg_id, rate_key in STREAMS:
                 await self._request_stream(msg_id, getattr(streams, rate_key))
+            self.rates.restart(self.link.now_us() / 1e6)
             try:
                 async with asyncio.timeout(streams.rerequest_after_s):
                     await self._odometry_seen.wait()
@@ -185,12 +221,20 @@ class Service:
 
     async def raise_on_stop(self) -> None:
         await self.stop.wait()
+        # The vehicle would coast on its last velocity until GUID_TIMEOUT: tell it to stop.
+        for setpoint in self.pipeline.stop_setpoint(self.link.now_us() / 1e6):
+            self.link.send(codec.set_position_target(setpoint))
+            log.info("shutdown: stop setpoint sent (velocity 0, yaw %.1f deg)",
+                     math.degrees(setpoint.yaw_rad))
         raise ShutdownRequested()
 
     # ------------------------------------------------------------ results
     def report(self) -> dict:
         data = snapshot(self.pipeline)
         data["link"] = asdict(self.link.statistics())
+        data["statustext_suppressed"] = self.notices.suppressed
+        data["stream_reasserts"] = self.rates.reasserts
+        data["setpoints_refused"] = dict(self.pipeline.gate.refused)
         data["config"] = config_to_dict(self.config)
         return data
 

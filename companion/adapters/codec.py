@@ -8,10 +8,13 @@ message used here with its fields and units.
 """
 from __future__ import annotations
 
+import hashlib
+import hmac
 import math
 import struct
 import os
 import time
+import types
 from dataclasses import dataclass
 
 os.environ.setdefault("MAVLINK20", "1")
@@ -140,8 +143,11 @@ def _obstacle_3d(msg, sysid: int, compid: int) -> ObstacleFrame:
     t_s = msg.time_boot_ms / 1000.0
     if msg.frame != mavlink.MAV_FRAME_BODY_FRD:
         return ObstacleFrame(sysid, compid, t_s, (), f"frame {msg.frame} not BODY_FRD")
-    if not (math.isfinite(msg.x) and math.isfinite(msg.y)):
+    if not (math.isfinite(msg.x) and math.isfinite(msg.y) and math.isfinite(msg.z)):
         return ObstacleFrame(sysid, compid, t_s, (), "non-finite position")
+    bounds = _bounds_problem(msg.min_distance, msg.max_distance)
+    if bounds:
+        return ObstacleFrame(sysid, compid, t_s, (), bounds)
     range_m = math.hypot(msg.x, msg.y)
     if range_m <= 0.0 or (msg.max_distance > 0.0 and range_m > msg.max_distance) \
             or range_m < msg.min_distance:
@@ -149,6 +155,17 @@ def _obstacle_3d(msg, sysid: int, compid: int) -> ObstacleFrame:
     oid = None if msg.obstacle_id == NO_OBSTACLE_ID else int(msg.obstacle_id)
     return ObstacleFrame(sysid, compid, t_s,
                          (Observation(range_m, math.atan2(msg.y, msg.x), oid),))
+
+
+def _bounds_problem(min_m: float, max_m: float) -> str | None:
+    """Why a sensor's [min_distance, max_distance] cannot be believed (max 0: not given)."""
+    if not (math.isfinite(min_m) and math.isfinite(max_m)):
+        return "non-finite distance bounds"
+    if min_m < 0.0 or max_m < 0.0:
+        return "negative distance bounds"
+    if max_m > 0.0 and min_m > max_m:
+        return "min_distance above max_distance"
+    return None
 
 
 def sector_bearings_rad(increment_deg: float, increment_f_deg: float, angle_offset_deg: float,
@@ -172,6 +189,10 @@ def _obstacle_sectors(msg, sysid: int, compid: int) -> ObstacleFrame:
         return ObstacleFrame(sysid, compid, t_s, (), f"frame {msg.frame} not BODY_FRD")
     if not (math.isfinite(msg.angle_offset) and math.isfinite(msg.increment_f)):
         return ObstacleFrame(sysid, compid, t_s, (), "non-finite sector angles")
+    if msg.increment_f < 0.0 or (msg.increment_f == 0.0 and msg.increment == 0):
+        return ObstacleFrame(sysid, compid, t_s, (), "sector increment not positive")
+    if msg.min_distance > msg.max_distance:
+        return ObstacleFrame(sysid, compid, t_s, (), "min_distance above max_distance")
     bearings = sector_bearings_rad(msg.increment, msg.increment_f, msg.angle_offset,
                                    len(msg.distances))
     observations = tuple(
@@ -400,12 +421,45 @@ def signing_timestamp(unix_s: float) -> int:
     return int(max(0.0, unix_s - SIGNING_EPOCH_UNIX_S) * 100_000)
 
 
+# A stream not seen before is accepted if stamped at most a minute before our timestamp (the
+# MAVLink 2 signing rule), in 10 us units.
+NEW_STREAM_WINDOW = 60 * 100_000
+
+
 def _enable_signing(mav: mavlink.MAVLink, key: bytes, unix_s: float, sign_outgoing: bool) -> None:
     mav.signing.secret_key = key
     mav.signing.timestamp = signing_timestamp(unix_s)
     mav.signing.sign_outgoing = sign_outgoing
     # No unsigned message is let through (ArduPilot lets RADIO_STATUS pass; we use none).
     mav.signing.allow_unsigned_callback = None
+    if not sign_outgoing:
+        mav.check_signature = types.MethodType(_verify_then_order, mav)
+
+
+def _verify_then_order(mav: mavlink.MAVLink, msgbuf: bytearray, src_system: int,
+                       src_component: int) -> bool:
+    """pymavlink's check_signature in the safe order: the signature first, the timestamp after.
+
+    pymavlink 2.4.x records the stream's timestamp before it checks the signature, so one forged
+    packet stamped 2^47 made every genuine packet of that stream "old" for good. Here nothing is
+    recorded unless the packet is signed with our key; then the timestamp must advance on a
+    known stream (replays refused), and a new stream may start at most a minute before our
+    timestamp.
+    """
+    signing = mav.signing
+    digest = hashlib.sha256(signing.secret_key + bytes(msgbuf[:-6])).digest()[:6]
+    if not hmac.compare_digest(digest, bytes(msgbuf[-6:])):
+        return False
+    timestamp = int.from_bytes(bytes(msgbuf[-12:-6]), "little")
+    stream = (msgbuf[-13], src_system, src_component)          # (link id, system, component)
+    last = signing.stream_timestamps.get(stream)
+    if last is not None and timestamp <= last:
+        return False
+    if last is None and timestamp + NEW_STREAM_WINDOW < signing.timestamp:
+        return False
+    signing.stream_timestamps[stream] = timestamp
+    signing.timestamp = max(signing.timestamp, timestamp)
+    return True
 
 
 class Encoder:
@@ -457,13 +511,30 @@ class Parser:
         self.bad_packets = 0
         self.unknown_packets = 0
         self.signature_rejected = 0
+        self._fixed_time = unix_s is not None
         if signing_key is not None:
             # A new stream must be stamped at most a minute before ``unix_s`` (now): a packet
             # recorded earlier cannot be replayed at us; within a stream time must advance.
             _enable_signing(self._mav, signing_key, time.time() if unix_s is None else unix_s,
                             sign_outgoing=False)
 
+    @property
+    def signing(self) -> bool:
+        return self._mav.signing.secret_key is not None
+
+    def discard_partial(self) -> None:
+        """Forget a half-received packet (a new connection, or a datagram from elsewhere); the
+        signing state (each stream's last timestamp) is kept."""
+        self._mav.buf = bytearray()
+        self._mav.buf_index = 0
+        self._mav.expected_length = mavlink.HEADER_LEN_V1 + 2
+
     def feed(self, data: bytes) -> list:
+        if self.signing and not self._fixed_time:
+            # "now" moves on: a new stream must start within a minute of the present, not of
+            # the daemon's start
+            signing = self._mav.signing
+            signing.timestamp = max(signing.timestamp, signing_timestamp(time.time()))
         try:
             msgs = self._mav.parse_buffer(data) or []
         except mavlink.MAVError:

@@ -6,7 +6,8 @@ watched with ``loop.add_reader``. pymavlink's MAVLink object is used only as the
 (``parse_buffer``) and the encoder (``send``, which advances the sequence number).
 
 URLs (pymavlink's spelling):
-  udpin:HOST:PORT   listen; reply to the last sender (also ``udp:``)
+  udpin:HOST:PORT   listen; reply to the last sender whose datagram parsed (and, signing on,
+                    verified) (also ``udp:``)
   udpout:HOST:PORT  send to HOST:PORT from an ephemeral port (we speak first: our heartbeat)
   tcp:HOST:PORT     connect; reconnect every ``reconnect_interval_s`` when the peer goes away
   tcpin:HOST:PORT   listen; the latest client is the peer
@@ -51,6 +52,7 @@ class LinkStatistics:
     dropped_inbound: int       # inbox full: the oldest message was dropped
     dropped_outbound: int      # no peer yet, or the peer is not reading
     connects: int
+    unparsed_datagrams: int    # UDP datagrams that gave no message (a peer's junk never steers us)
 
 
 @dataclass(frozen=True)
@@ -96,7 +98,8 @@ class MavlinkLink:
         self._signing_key = signing_key
         self._parser = Parser(signing_key)
         self._send_bytes: Callable[[bytes], bool] = lambda data: False
-        self._counts = dict(received=0, sent=0, dropped_inbound=0, dropped_outbound=0, connects=0)
+        self._counts = dict(received=0, sent=0, dropped_inbound=0, dropped_outbound=0, connects=0,
+                            unparsed_datagrams=0)
         self._closers: list[Callable[[], None]] = []
 
     # ---------------------------------------------------------------- API
@@ -130,18 +133,23 @@ class MavlinkLink:
             await asyncio.Future()          # datagrams, server and serial arrive by callback
 
     # ---------------------------------------------------------------- receiving
-    def _feed(self, data: bytes) -> None:
+    def _feed(self, data: bytes) -> int:
+        """Parse received bytes into the inbox; returns how many messages they gave."""
         t_us = self.now_us()
-        for msg in self._parser.feed(data):
+        msgs = self._parser.feed(data)
+        for msg in msgs:
             self._counts["received"] += 1
             if self.inbox.full():
                 self.inbox.get_nowait()
                 self._counts["dropped_inbound"] += 1
             self.inbox.put_nowait(Received(t_us, msg))
+        return len(msgs)
 
     def _connected(self, what: str) -> None:
+        # A new connection starts with no half packet; the parser, its counters and its signing
+        # state (each stream's last timestamp: what refuses replays) carry on.
         self._counts["connects"] += 1
-        self._parser = _carry_counts(self._parser, self._signing_key)
+        self._parser.discard_partial()
         log.info("link up: %s", what)
         if self.on_connect is not None:
             self.on_connect()
@@ -172,10 +180,15 @@ class MavlinkLink:
 
         class Protocol(asyncio.DatagramProtocol):
             def datagram_received(self, data: bytes, addr) -> None:
-                if ep.kind == "udpin" and addr != peer[0]:
+                # MAVLink over UDP puts whole packets in each datagram: parse each on its own, so
+                # a truncated packet cannot swallow the next datagram or another sender's bytes.
+                link._parser.discard_partial()
+                if link._feed(data) == 0:
+                    link._counts["unparsed_datagrams"] += 1
+                elif ep.kind == "udpin" and addr != peer[0]:
+                    # only a sender whose packet parsed (and verified) takes the reply path
                     peer[0] = addr
                     link._connected(f"udp peer {addr[0]}:{addr[1]}")
-                link._feed(data)
 
             def error_received(self, exc: Exception) -> None:
                 log.debug("udp error: %s", exc)       # e.g. ICMP port unreachable: peer down
@@ -268,14 +281,6 @@ class MavlinkLink:
         self._closers.append(lambda: self._loop.remove_reader(fd))
         self._send_bytes = send
         self._connected(f"serial {self.endpoint.host} at {self.endpoint.port} baud")
-
-
-def _carry_counts(old: Parser, signing_key: bytes | None) -> Parser:
-    """A fresh parser (no half packet from the old connection) that keeps the counters."""
-    new = Parser(signing_key)
-    new.bad_packets, new.unknown_packets = old.bad_packets, old.unknown_packets
-    new.signature_rejected = old.signature_rejected
-    return new
 
 
 @asynccontextmanager

@@ -4,9 +4,11 @@ from __future__ import annotations
 import argparse
 import asyncio
 import dataclasses
+import math
 import sys
 
 from companion.config import CompanionConfig, GoalConfig, load_config
+from companion.config_loader import MAX_MAGNITUDE, FieldError
 from companion.errors import CompanionError, ConfigError
 from companion.paths import resolve_config
 
@@ -35,13 +37,22 @@ def add_parser(sub) -> None:
 
 
 def parse_goal(text: str) -> GoalConfig:
+    """NORTH,EAST[,RADIUS] in metres; every problem is a ConfigError naming --goal."""
     try:
         values = [float(v) for v in text.split(",")]
     except ValueError:
         values = []
     if len(values) not in (2, 3):
         raise ConfigError(f"--goal: expected NORTH,EAST or NORTH,EAST,RADIUS in metres, got {text!r}")
-    return GoalConfig(*values)
+    if not all(math.isfinite(v) for v in values):
+        raise ConfigError(f"--goal: expected finite numbers, got {text!r}")
+    if any(abs(v) > MAX_MAGNITUDE for v in values):
+        raise ConfigError(f"--goal: expected metres of sane magnitude (|value| <= "
+                          f"{MAX_MAGNITUDE:g}), got {text!r}")
+    try:
+        return GoalConfig(*values)
+    except FieldError as exc:
+        raise ConfigError(f"--goal: {exc.key}: {exc.problem}") from None
 
 
 def effective_config(args: argparse.Namespace) -> CompanionConfig:
