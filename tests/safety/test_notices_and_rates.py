@@ -1,0 +1,52 @@
+"""STATUSTEXT limiter and stream-rate watch (pure: time is an argument)."""
+from companion.safety.notices import NoticeLimiter
+from companion.stream_rates import StreamRateWatch
+
+
+def test_the_same_text_at_most_once_per_repeat_interval():
+    lim = NoticeLimiter(repeat_s=5.0, per_s=10)
+    assert lim.admit("a", 0.0)
+    assert not lim.admit("a", 1.0) and not lim.admit("a", 4.9)
+    assert lim.admit("a", 5.0)
+    assert lim.suppressed == 2
+
+
+def test_a_total_cap_per_second_and_the_suppressed_count_is_reported():
+    lim = NoticeLimiter(repeat_s=5.0, per_s=2)
+    admitted = [lim.admit(f"text {i}", 0.1 * i) for i in range(50)]    # 50 in 5 s
+    assert sum(admitted) <= 2 * 5 + 1 and lim.suppressed == 50 - sum(admitted)
+    assert lim.take_suppressed_report(0.45) is None         # budget spent this second
+    text = lim.take_suppressed_report(20.0)
+    assert text == f"companion: {lim.suppressed} notices suppressed"
+    assert lim.take_suppressed_report(40.0) is None          # reported once
+
+
+def feed(watch, t0, seconds, hz_by_id):
+    for k in range(int(seconds * 100)):
+        t = t0 + k / 100
+        for msg_id, hz in hz_by_id.items():
+            if k % int(100 / hz) == 0:
+                watch.on_message(msg_id)
+    return t0 + seconds
+
+
+def test_a_stream_below_the_fraction_is_asked_again_a_bounded_number_of_times():
+    watch = StreamRateWatch({30: 10.0, 32: 10.0}, window_s=5.0, min_fraction=0.5,
+                            max_reasserts=2)
+    watch.restart(0.0)
+    t = feed(watch, 0.0, 5.0, {30: 10, 32: 4})           # a router set 32 to 4 Hz
+    assert watch.check(t) == [32]
+    for _ in range(3):
+        t = feed(watch, t, 5.0, {30: 10, 32: 4})
+        watch.check(t)
+    assert watch.reasserts == 2                           # bounded
+    t = feed(watch, t, 5.0, {30: 10, 32: 10})             # back to the asked rate: reset
+    assert watch.check(t) == []
+    t = feed(watch, t, 5.0, {30: 10, 32: 4})
+    assert watch.check(t) == [32] and watch.reasserts == 3
+
+
+def test_no_check_before_a_window_has_passed():
+    watch = StreamRateWatch({30: 10.0}, window_s=5.0, min_fraction=0.5, max_reasserts=2)
+    watch.restart(0.0)
+    assert watch.check(4.0) == []
