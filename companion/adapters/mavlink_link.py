@@ -8,7 +8,8 @@ watched with ``loop.add_reader``. pymavlink's MAVLink object is used only as the
 URLs (pymavlink's spelling):
   udpin:HOST:PORT   listen; reply to the last sender whose datagram parsed (and, signing on,
                     verified) (also ``udp:``)
-  udpout:HOST:PORT  send to HOST:PORT from an ephemeral port (we speak first: our heartbeat)
+  udpout:HOST:PORT  send to HOST:PORT from an ephemeral port (we speak first: our heartbeat);
+                    only datagrams from HOST:PORT are received (a connected socket)
   tcp:HOST:PORT     connect; reconnect every ``reconnect_interval_s`` when the peer goes away
   tcpin:HOST:PORT   listen; the latest client is the peer
   /dev/ttyX:BAUD    serial (also ``/dev/ttyX,BAUD`` as mavutil writes it)
@@ -193,15 +194,22 @@ class MavlinkLink:
             def error_received(self, exc: Exception) -> None:
                 log.debug("udp error: %s", exc)       # e.g. ICMP port unreachable: peer down
 
-        local = (ep.host, ep.port) if ep.kind == "udpin" else ("0.0.0.0", 0)
-        transport, _ = await self._loop.create_datagram_endpoint(Protocol, local_addr=local)
+        if ep.kind == "udpin":
+            transport, _ = await self._loop.create_datagram_endpoint(
+                Protocol, local_addr=(ep.host, ep.port))
+        else:
+            # A connected socket: the kernel delivers datagrams from HOST:PORT only. Unconnected,
+            # a stream meant for whoever held our ephemeral port before (another stub's or
+            # autopilot's last peer on this machine) was taken for the vehicle's.
+            transport, _ = await self._loop.create_datagram_endpoint(
+                Protocol, remote_addr=(ep.host, ep.port))
         self._closers.append(transport.close)
         self.local_address = transport.get_extra_info("sockname")[:2]
 
         def send(data: bytes) -> bool:
             if peer[0] is None or transport.is_closing():
                 return False
-            transport.sendto(data, peer[0])
+            transport.sendto(data, peer[0] if ep.kind == "udpin" else None)
             return True
         self._send_bytes = send
         if ep.kind == "udpout":

@@ -167,3 +167,22 @@ def test_a_truncated_datagram_does_not_swallow_the_next_one():
             assert await inbox_types(link, SILENCE_S) == ["ATTITUDE"]
             vehicle.close()
     run(scenario())
+
+
+def test_udpout_hears_only_its_peer_not_whoever_sends_to_its_port():
+    async def scenario():
+        vehicle = udp_socket()
+        async with open_link(f"udpout:127.0.0.1:{vehicle.getsockname()[1]}",
+                             codec.Encoder(1, 191)) as link:
+            ours = ("127.0.0.1", link.local_address[1])
+            other_stub = udp_socket()            # still streaming to a port we now hold
+            other_stub.sendto(codec.Encoder(1, 1).encode(attitude(5000)), ours)
+            vehicle.sendto(codec.Encoder(1, 1).encode(attitude(1000)), ours)
+            got = []
+            async with asyncio.timeout(RECV_WAIT_S):
+                got.append((await link.inbox.get()).msg.time_boot_ms)
+            assert await inbox_types(link, SILENCE_S) == []
+            assert got == [1000]
+            other_stub.close()
+        vehicle.close()
+    run(scenario())
