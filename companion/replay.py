@@ -78,6 +78,11 @@ def replay_tlog(path: str | Path, config: CompanionConfig,
             elif isinstance(output, codec.PoseEstimate):
                 result.replayed_poses[int(round(output.t_s * 1e6))] = (
                     codec.float32(output.north_m), codec.float32(output.east_m))
+    if len(result.recorded_keys) == len(result.replayed_keys) + 1 and result.last_us is not None:
+        # the daemon's shutdown: SIGINT/SIGTERM while commanding sent one stop setpoint
+        for output in pipeline.stop_setpoint(result.last_us / 1e6):
+            result.setpoints.append(output)
+            result.replayed_keys.append(codec.setpoint_key_of(output))
     result.wall_s = time.perf_counter() - started
     _add_notes(result)
     return result
