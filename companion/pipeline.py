@@ -49,7 +49,6 @@ PLAUSIBLE_SPEED_MPS = 50.0
 PLAUSIBLE_RANGE_M = 1000.0
 PLAUSIBLE_YAW_RATE_RAD_S = 20.0  # ArduCopter's fastest yaw is well under 10 rad/s
 ATTITUDE_HISTORY = 32
-CLOCK_EVIDENCE_EVENTS = 256      # events held while a new vehicle clock awaits its evidence
 TIME_EPS_S = 1e-6
 
 
@@ -116,9 +115,6 @@ class Pipeline:
         self.gate = SetpointGate(SetpointLimits(
             config.commanding.max_speed_mps, safety.max_vertical_speed_mps,
             safety.max_yaw_rate_rad_s, safety.max_position_m))
-        # (candidate serial, t_link_s, event) refused on a clock that may yet be adopted
-        self._clock_evidence: deque[tuple[int, float, codec.Event]] = deque(
-            maxlen=CLOCK_EVIDENCE_EVENTS)
         self._link_lost = False
         self._allowed = False
         self._attitudes: deque[codec.Attitude] = deque(maxlen=ATTITUDE_HISTORY)
@@ -246,18 +242,13 @@ class Pipeline:
         """Judge an autopilot message's time (safety/clock.py). Refused stamps are counted; those
         on a candidate clock are kept, and handled once that clock is adopted (reboot, jump)."""
         before = self.clock.latest_t_s
-        verdict = self.clock.on_autopilot(event.t_s)
+        verdict = self.clock.on_autopilot(event.t_s, (t_link_s, event))
         if verdict.reason == "ok":
-            self._clock_evidence.clear()
             return True
         if not verdict.accepted:
             self._count(f"time_{verdict.reason}")
-            if verdict.reason != "not_finite":
-                self._clock_evidence.append((self.clock.candidate_serial, t_link_s, event))
             return False
-        serial = self.clock.candidate_serial
-        evidence = [(t, e) for s, t, e in self._clock_evidence if s == serial]
-        self._clock_evidence.clear()
+        evidence = verdict.held
         if verdict.reason == "reboot":
             log.warning("vehicle time went back %.1f s -> %.1f s on %d messages and a heartbeat: "
                         "reboot, estimate reset", before, event.t_s, len(evidence) + 1)
@@ -389,13 +380,11 @@ class Pipeline:
         frame = self._in_vehicle_time(frame, out)
         if frame is None:
             return
-        verdict = self.clock.check_frame(frame.t_s)
+        verdict = self.clock.check_frame(frame.t_s, (t_link_s, frame))
         if not verdict.accepted:
             # Before the vehicle's clock (a reboot not yet seen in its own messages, or a
             # glitch) or ahead of it: it would be matched against the wrong pose.
             self._count("obstacle_time_ahead" if verdict.reason == "ahead" else "obstacle_too_old")
-            if self.clock.near_candidate(frame.t_s):
-                self._clock_evidence.append((self.clock.candidate_serial, t_link_s, frame))
             return
         if frame.rejected:
             self._count("obstacle_rejected")

@@ -16,9 +16,12 @@ the first one (:class:`EpochCamera`).
 from __future__ import annotations
 
 import math
+from collections import deque
 from dataclasses import dataclass
+from typing import Any
 
 EPOCH_THRESHOLD_S = 1e9          # 2001-09-09 in Unix time; 31 years since boot is not a boot time
+HELD_ITEMS = 256                 # messages kept while a candidate clock awaits its evidence
 
 
 @dataclass(frozen=True)
@@ -32,6 +35,7 @@ class ClockLimits:
 class ClockVerdict:
     accepted: bool
     reason: str     # 'ok'; refused: 'not_finite', 'behind', 'ahead'; adopted: 'reboot', 'jump'
+    held: tuple = ()   # adopted: the items refused on the new clock, in order, to handle again
 
 
 class VehicleClock:
@@ -41,36 +45,45 @@ class VehicleClock:
         self.limits = limits
         self.latest_t_s: float | None = None
         self._candidate: _Candidate | None = None
-        self.candidate_serial = 0      # which candidate a refused message belongs to
+        self._held: deque[Any] = deque(maxlen=HELD_ITEMS)
 
     @property
     def candidate_pending(self) -> bool:
         return self._candidate is not None
 
-    def on_autopilot(self, t_s: float) -> ClockVerdict:
-        """A stamp of the autopilot's ATTITUDE or LOCAL_POSITION_NED.
+    def on_autopilot(self, t_s: float, item: Any = None) -> ClockVerdict:
+        """A stamp of the autopilot's ATTITUDE or LOCAL_POSITION_NED; ``item`` (the message) is
+        kept if refused on a candidate clock.
 
         Adopting a new clock ('reboot', 'jump') sets ``latest_t_s`` to the first stamp of the
-        evidence, so that the evidence messages can be handled again in order.
+        evidence and returns the kept items, so that the caller handles them again in order
+        (then :meth:`settle` on the adopting stamp).
         """
         if not math.isfinite(t_s):
             return ClockVerdict(False, "not_finite")
         where = self._place(t_s)
         if where == "ok":
             self.latest_t_s = t_s if self.latest_t_s is None else max(self.latest_t_s, t_s)
-            self._candidate = None
+            self._drop_candidate()
             return ClockVerdict(True, "ok")
         cand = self._candidate
         if cand is None or cand.direction != where or not self._near(cand.last_t_s, t_s):
+            self._drop_candidate()
             cand = self._candidate = _Candidate(where, t_s)
-            self.candidate_serial += 1
         else:
             cand.add(t_s)
         if cand.count >= self.limits.evidence_messages and (where == "ahead" or cand.heartbeat):
-            self._candidate = None
+            held = tuple(self._held)
+            self._drop_candidate()
             self.latest_t_s = cand.first_t_s
-            return ClockVerdict(True, "reboot" if where == "behind" else "jump")
+            return ClockVerdict(True, "reboot" if where == "behind" else "jump", held)
+        if item is not None:
+            self._held.append(item)
         return ClockVerdict(False, where)
+
+    def _drop_candidate(self) -> None:
+        self._candidate = None
+        self._held.clear()
 
     def settle(self, t_s: float) -> None:
         """After an adopted clock's evidence was handled again: the adopting stamp is the latest."""
@@ -80,16 +93,17 @@ class VehicleClock:
         if self._candidate is not None:
             self._candidate.heartbeat = True
 
-    def check_frame(self, t_s: float) -> ClockVerdict:
-        """A camera frame's stamp (already in vehicle time): never evidence for a new clock."""
+    def check_frame(self, t_s: float, item: Any = None) -> ClockVerdict:
+        """A camera frame's stamp (already in vehicle time): never evidence for a new clock. A
+        refused frame that agrees with the candidate clock is kept with its evidence."""
         if not math.isfinite(t_s):
             return ClockVerdict(False, "not_finite")
         where = self._place(t_s)
+        cand = self._candidate
+        if where != "ok" and item is not None and cand is not None \
+                and self._near(cand.last_t_s, t_s):
+            self._held.append(item)
         return ClockVerdict(where == "ok", where)
-
-    def near_candidate(self, t_s: float) -> bool:
-        """A refused stamp that agrees with the candidate clock (to be handled if adopted)."""
-        return self._candidate is not None and self._near(self._candidate.last_t_s, t_s)
 
     def _place(self, t_s: float) -> str:
         if self.latest_t_s is None:

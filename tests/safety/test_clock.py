@@ -92,3 +92,18 @@ def test_epoch_camera_maps_by_the_offset_of_its_first_frame():
     assert cam.to_vehicle_time(1.7e9 + 0.2, 99.0) == pytest.approx(42.2)   # offset kept
     cam.forget()
     assert cam.offset_s is None
+
+
+def test_messages_refused_on_the_adopted_clock_are_returned_in_order_to_handle_again():
+    clock = running(evidence_messages=3)
+    clock.on_autopilot(5.0, "stray")                     # a candidate of its own, dropped
+    clock.on_autopilot(clock.latest_t_s, "old clock")
+    clock.on_autopilot(0.5, "a")
+    assert not clock.check_frame(0.55, "frame").accepted  # agrees with the candidate: kept
+    assert not clock.check_frame(50.0, "far frame").accepted
+    clock.on_vehicle_heartbeat()
+    clock.on_autopilot(0.6, "b")
+    verdict = clock.on_autopilot(0.7, "c")
+    assert verdict.reason == "reboot" and verdict.held == ("a", "frame", "b")
+    clock.settle(0.7)
+    assert clock.latest_t_s == 0.7
