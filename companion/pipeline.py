@@ -131,6 +131,7 @@ class Pipeline:
         self.track: deque[array] = deque(maxlen=track_limit)
         self.counters: dict[str, int] = {}
         self.setpoints = 0
+        self.stopped = False            # stop_setpoint() sent: no setpoint after it
 
     # ------------------------------------------------------------ entry point
     def handle(self, t_link_s: float, event: codec.Event | None) -> list[Output]:
@@ -174,15 +175,17 @@ class Pipeline:
                 and self.liveness.heartbeat_fresh(t_link_s))
 
     def stop_setpoint(self, t_link_s: float) -> list[Output]:
-        """Zero velocity at the current yaw, through the gate, if commanding (on shutdown)."""
+        """Zero velocity at the current yaw, through the gate, if commanding (on shutdown).
+        It is the last setpoint: nothing is sent after it."""
         out: list[Output] = []
-        if self.vehicle is None or self.clock.latest_t_s is None:
-            return out
-        yaw = self._ap_yaw_rad
-        if yaw is None and self._attitudes:
-            yaw = self._attitudes[-1].yaw_rad
-        self._send(t_link_s, codec.VelocitySetpoint(
-            *self.vehicle, self.clock.latest_t_s, 0.0, 0.0, wrap_angle(yaw or 0.0), "stop"), out)
+        if self.vehicle is not None and self.clock.latest_t_s is not None:
+            yaw = self._ap_yaw_rad
+            if yaw is None and self._attitudes:
+                yaw = self._attitudes[-1].yaw_rad
+            self._send(t_link_s, codec.VelocitySetpoint(
+                *self.vehicle, self.clock.latest_t_s, 0.0, 0.0,
+                wrap_angle(0.0 if yaw is None else yaw), "stop"), out)
+        self.stopped = True
         return out
 
     # ------------------------------------------------------------ identities
@@ -497,6 +500,9 @@ class Pipeline:
     def _send(self, t_link_s: float, setpoint: codec.VelocitySetpoint, out: list[Output]) -> None:
         """The one place a setpoint leaves: commanding allowed, and passed by the gate."""
         if not self.commanding_allowed(t_link_s):
+            return
+        if self.stopped:
+            self._count("setpoint_after_stop")
             return
         verdict = self.gate.check(setpoint)
         if not verdict.passed:

@@ -88,8 +88,13 @@ class Service:
     # ------------------------------------------------------------ tasks
     async def estimate(self) -> None:
         link, pipeline = self.link, self.pipeline
-        while True:
+        # Stop taking messages once shutdown is asked: the stop setpoint follows the last message
+        # handled (and recorded), as replay reproduces it. (inbox.get() does not yield while the
+        # inbox holds messages, so the TaskGroup's cancellation alone could come late.)
+        while not self.stop.is_set():
             received = await link.inbox.get()
+            if self.stop.is_set():
+                break
             if self.tlog is not None:
                 self.tlog.write(received.t_us, bytes(received.msg.get_msgbuf()))
             event = codec.decode(received.msg)

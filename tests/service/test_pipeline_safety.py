@@ -165,3 +165,13 @@ def test_obstacle_bounds_refused_by_the_codec_are_counted_and_do_not_feed_livene
         feed.step()
     assert feed.p.counters["obstacle_rejected"] == 20
     assert setpoints(feed.outputs)[-1].reason == "hold: obstacle data stale"
+
+
+def test_after_the_stop_setpoint_nothing_is_sent():
+    feed = started()
+    for _ in range(3):
+        feed.step()
+    assert len(feed.p.stop_setpoint(feed.link_s)) == 1
+    for _ in range(3):
+        assert setpoints(feed.step()) == []
+    assert feed.p.counters["setpoint_after_stop"] == 3
