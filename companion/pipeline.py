@@ -24,11 +24,11 @@ Rules (docs/messages.md repeats them):
 """
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 from array import array
 from collections import deque
-import dataclasses
 from dataclasses import asdict, dataclass
 
 import numpy as np
