@@ -37,6 +37,13 @@ class Origin:
             east_m / (EARTH_RADIUS_M * math.cos(math.radians(self.lat_deg))))
         return lat_deg, lon_deg
 
+    def to_north_east_m(self, lat_deg: float, lon_deg: float) -> tuple[float, float]:
+        """The inverse of to_lat_lon_deg: (north_m, east_m) of a point from this origin."""
+        north_m = math.radians(lat_deg - self.lat_deg) * EARTH_RADIUS_M
+        east_m = (math.radians(lon_deg - self.lon_deg)
+                  * EARTH_RADIUS_M * math.cos(math.radians(self.lat_deg)))
+        return north_m, east_m
+
 
 @dataclass(frozen=True)
 class Pose:
