@@ -27,6 +27,7 @@ flight_record.py.
 from __future__ import annotations
 
 import asyncio
+import ctypes
 import dataclasses
 import logging
 import math
@@ -64,7 +65,10 @@ SETTLE_SPEED_MPS = 0.3
 SETTLE_TIMEOUT_S = 5.0
 ORIGIN_TOLERANCE_M = 1.0
 ALTITUDE_REACHED = 0.95
-STOP_TIMEOUT_S = 5.0
+PR_SET_PDEATHSIG = 1          # linux/prctl.h
+# The process's own symbols (libc's prctl among them), loaded now: nothing may be loaded in a
+# forked child before exec.
+_LIBC = ctypes.CDLL(None) if sys.platform.startswith("linux") else None
 
 
 @dataclass(frozen=True)
@@ -115,6 +119,12 @@ def service_config(scenario: Scenario):
         goal.north_m - start.north_m, goal.east_m - start.east_m, goal.radius_m))
 
 
+def _die_with_parent() -> None:
+    """In the child before exec (Linux): SIGTERM when the demo dies, even by SIGKILL or a test's
+    timeout, so that no SITL is left running at ten times real time with nobody to stop it."""
+    _LIBC.prctl(PR_SET_PDEATHSIG, signal.SIGTERM)
+
+
 async def spawn_in(name: str, args: list[str], cwd: Path, log_dir: Path,
                    stdout=asyncio.subprocess.DEVNULL) -> Child:
     """A child in ``cwd`` whose stderr goes to LOG_DIR/NAME.stderr (stdout too, if "merge")."""
@@ -122,7 +132,8 @@ async def spawn_in(name: str, args: list[str], cwd: Path, log_dir: Path,
     with open(stderr_path, "wb") as err:
         proc = await asyncio.create_subprocess_exec(
             *args, stdout=err if stdout == "merge" else stdout, stderr=err, cwd=cwd,
-            stdin=asyncio.subprocess.DEVNULL)
+            stdin=asyncio.subprocess.DEVNULL,
+            preexec_fn=_die_with_parent if sys.platform.startswith("linux") else None)
     return Child(name, proc, stderr_path)
 
 

@@ -99,3 +99,29 @@ def test_ardupilot_flies_the_paper_scenario_from_a_guided_takeoff(flight, record
         state = truth[bisect.bisect_right(times, t_s) - 1]
         assert state["landed_state"] != LANDED_STATE_ON_GROUND, f"setpoint at {t_s:.1f} s landed"
     assert checks["setpoints_while_landed"] == 0
+
+
+def test_a_killed_demo_leaves_no_autopilot_running(tmp_path):
+    """SIGKILL gives the demo no chance to clean up: its children die with it (PDEATHSIG)."""
+    import psutil
+
+    from tests.e2e.support import wait_until
+    keep = tmp_path / "work"
+    with open(tmp_path / "demo.out", "w") as out:
+        demo = subprocess.Popen(
+            [sys.executable, "-m", "companion", "demo", "--autopilot", SITL,
+             "--autopilot-defaults", DEFAULTS, "--speedup", "1", "--keep", str(keep)],
+            cwd=REPO, stdout=out, stderr=subprocess.STDOUT)
+    try:
+        wait_until(lambda: len(psutil.Process(demo.pid).children()) >= 3, 30.0,
+                   "the camera, the service and SITL")
+        children = psutil.Process(demo.pid).children()
+        assert any("arducopter" in " ".join(c.cmdline()) for c in children)
+        demo.kill()
+        demo.wait(timeout=10)
+        _, alive = psutil.wait_procs(children, timeout=10)
+        assert alive == []
+    finally:
+        if demo.poll() is None:
+            demo.kill()
+            demo.wait()
