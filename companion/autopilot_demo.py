@@ -43,8 +43,8 @@ from companion.adapters import codec, gcs_codec
 from companion.adapters.mavlink_link import open_link
 from companion.config import GoalConfig, Scenario, config_to_dict
 from companion.core.flat_earth import to_lat_lon_deg
-from companion.demo import (GCS_SYSTEM_ID, Child, DemoError, demo_config, read_report, read_truth,
-                            wait_for)
+from companion.demo import (GCS_SYSTEM_ID, Child, DemoError, DemoFiles, demo_config, read_report,
+                            read_truth, wait_for)
 from companion.flight_record import FlightRecorder, companion_setpoints, takeoff_checks
 
 log = logging.getLogger(__name__)
@@ -76,29 +76,16 @@ class AutopilotSetup:
     binary: Path
     defaults: Path
     takeoff_alt_m: float = 10.0
-    service_start: str = "boot"     # boot (the docs' workflow) | airborne (service started at altitude)
+    service_start: str = "boot"     # boot (the docs' workflow) | airborne (started at altitude)
 
 
 @dataclass(frozen=True)
-class AutopilotFiles:
-    workdir: Path
-    tlog: Path
+class AutopilotFiles(DemoFiles):
+    """The stub demo's files (truth log, report, config; tlog always kept here), and SITL's."""
 
     @property
     def sitl_dir(self) -> Path:
         return self.workdir / "sitl"
-
-    @property
-    def truth(self) -> Path:
-        return self.workdir / "truth.jsonl"
-
-    @property
-    def report(self) -> Path:
-        return self.workdir / "companion-report.json"
-
-    @property
-    def config(self) -> Path:
-        return self.workdir / "companion.yaml"
 
     @property
     def status_texts(self) -> Path:

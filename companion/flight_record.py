@@ -102,7 +102,8 @@ class FlightRecorder:
 
     def _on_heartbeat(self, hb: codec.Heartbeat) -> None:
         s = self.state
-        if s.vehicle is None and hb.is_autopilot and hb.component_id == codec.MAV_COMP_ID_AUTOPILOT1:
+        if s.vehicle is None and hb.is_autopilot \
+                and hb.component_id == codec.MAV_COMP_ID_AUTOPILOT1:
             s.vehicle = (hb.system_id, hb.component_id)
         if s.vehicle is None or hb.system_id != s.vehicle[0]:
             return

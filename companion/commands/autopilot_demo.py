@@ -91,8 +91,8 @@ def print_flight(summary: dict, checks: dict, wall_s: float, speedup: float) -> 
           f"wall (speedup {speedup:g}); urgent events {summary['urgent_events']}")
     print(f"takeoff to {checks['takeoff_alt_m']:g} m (service from {checks['service_start']}): "
           f"armed at {fmt(checks['armed_t_s'], ' s')}, first setpoint at "
-          f"{fmt(checks['first_setpoint_t_s'], ' s')} at {fmt(checks['first_setpoint_alt_m'], ' m')}"
-          f" ({checks['first_setpoint_landed_state']}); setpoints {checks['setpoints']}, while "
+          f"{fmt(checks['first_setpoint_t_s'], ' s')} at "
+          f"{fmt(checks['first_setpoint_alt_m'], ' m')} ({checks['first_setpoint_landed_state']}); setpoints {checks['setpoints']}, while "
           f"landed {checks['setpoints_while_landed']} (service's own view "
           f"{checks['setpoints_while_landed_by_service_tlog']}); max altitude "
           f"{fmt(checks['max_alt_m'], ' m')}")
