@@ -52,16 +52,20 @@ def flight(tmp_path_factory):
     return out, done, json.loads((out / "demo.json").read_text())
 
 
-def service_setpoints_and_altitude(tlog: Path) -> list[tuple[float, float | None]]:
-    """(vehicle time of each setpoint the service sent, the altitude in the last
-    LOCAL_POSITION_NED it had received from the autopilot before sending it)."""
-    out, up_m = [], None
+def service_setpoints(tlog: Path) -> list[tuple[float, float | None, int | None]]:
+    """(vehicle time of each setpoint the service sent, the altitude of the last
+    LOCAL_POSITION_NED and the last EXTENDED_SYS_STATE landed state, if any, it had received
+    from the autopilot before sending it)."""
+    out, up_m, landed = [], None, None
     for record in TlogReader(tlog):
         msg = record.msg
-        if msg.get_srcComponent() == 191 and msg.get_type() == "SET_POSITION_TARGET_LOCAL_NED":
-            out.append((msg.time_boot_ms / 1000.0, up_m))
-        elif msg.get_srcComponent() == 1 and msg.get_type() == "LOCAL_POSITION_NED":
+        kind = msg.get_type()
+        if msg.get_srcComponent() == 191 and kind == "SET_POSITION_TARGET_LOCAL_NED":
+            out.append((msg.time_boot_ms / 1000.0, up_m, landed))
+        elif msg.get_srcComponent() == 1 and kind == "LOCAL_POSITION_NED":
             up_m = -msg.z
+        elif msg.get_srcComponent() == 1 and kind == "EXTENDED_SYS_STATE":
+            landed = msg.landed_state
     return out
 
 
@@ -92,10 +96,11 @@ def test_ardupilot_flies_the_paper_scenario_from_a_guided_takeoff(flight, record
 
     truth = [json.loads(line) for line in (out / "work" / "truth.jsonl").read_text().splitlines()]
     times = [r["t_s"] for r in truth]
-    sent = service_setpoints_and_altitude(out / "work" / "companion.tlog")
+    sent = service_setpoints(out / "work" / "companion.tlog")
     assert len(sent) > 100
-    for t_s, up_m in sent:
+    for t_s, up_m, landed in sent:
         assert up_m is not None and up_m > ON_GROUND_ALT_M, f"setpoint at {t_s:.1f} s, {up_m} m"
+        assert landed != LANDED_STATE_ON_GROUND, f"setpoint at {t_s:.1f} s, service knew: landed"
         state = truth[bisect.bisect_right(times, t_s) - 1]
         assert state["landed_state"] != LANDED_STATE_ON_GROUND, f"setpoint at {t_s:.1f} s landed"
     assert checks["setpoints_while_landed"] == 0
