@@ -37,7 +37,7 @@ def test_mavproxy_sees_a_normal_arducopter(tmp_path):
     stub = start_stub(tmp_path)
     gcs = subprocess.Popen(
         [sys.executable, MAVPROXY, f"--master=tcp:127.0.0.1:{stub.tcp_port}", "--non-interactive",
-         "--default-modules=param,mode,arm,cmdlong", "--cmd=arm throttle"],
+         "--default-modules=param,mode,arm,cmdlong,fence", "--cmd=arm throttle"],
         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, text=True,
         cwd=tmp_path)
     try:
@@ -53,6 +53,7 @@ def test_mavproxy_sees_a_normal_arducopter(tmp_path):
     assert "Detected vehicle 1:1 on link 0" in out, out        # the autopilot
     assert "Detected vehicle 1:100 on link 0" in out, out      # the stereo camera
     assert "Mode STABILIZE" in out, out                         # ArduCopter's mode 0, by name
+    assert "fence breach" not in out, out                       # SYS_STATUS bits as ArduCopter's
     assert "COMPONENT_ARM_DISARM: ACCEPTED" in out and "ARMED" in out, out
     params = dict(line.split()[:2] for line in (tmp_path / "mav.parm").read_text().splitlines()
                   if line.strip() and not line.startswith("#"))
