@@ -87,3 +87,23 @@ def test_stub_disarms_a_landed_vehicle_that_gets_velocity_setpoints(tmp_path):
     assert armed and all(r["up_m"] < 0.5 and r["speed_mps"] == 0.0 for r in truth)
     armed_s = armed[-1]["t_s"] - armed[0]["t_s"]
     assert 9.5 <= armed_s <= 11.5                               # DISARM_DELAY 10 s
+
+
+def test_a_lat_lon_goal_is_converted_with_the_ekf_origin_the_daemon_asks_for(tmp_path):
+    lat0, lon0 = -35.363261, 149.165230          # the paper scenario's origin
+    goal_lat = lat0 + 180.0 / 111318.84502145034  # 180 m north (ArduPilot's scaling)
+    stub, _, udp_port = start_stub(tmp_path, "--speedup", SPEEDUP)
+    report = tmp_path / "r.json"
+    config = write_config(tmp_path)
+    companion = start_companion(tmp_path, f"udpout:127.0.0.1:{udp_port}", config,
+                                "--goal", f"geo:{goal_lat:.9f},{lon0:.9f}", "--report", str(report))
+    try:
+        wait_until(lambda: "-> north" in companion.stderr(), 20.0, "the goal in metres")
+        assert companion.stop()[0] == 0
+    finally:
+        for process in (companion, stub):
+            if process.proc.poll() is None:
+                process.stop()
+    north, east = json.loads(report.read_text())["goal_ne_m"]
+    assert abs(north - 180.0) < 0.05 and abs(east) < 0.05
+    assert "from the EKF origin" in companion.stderr()

@@ -166,3 +166,42 @@ def test_goal_config_forms_and_mistakes():
     with pytest.raises(FieldError, match="latitude"):
         GoalConfig(lat_deg=91.0, lon_deg=0.0)
     assert GOAL.north_m == 180.0
+
+
+@pytest.mark.parametrize("text, expected", [
+    ("180,0", GoalConfig(north_m=180.0, east_m=0.0)),
+    ("10,-5,3", GoalConfig(north_m=10.0, east_m=-5.0, radius_m=3.0)),
+    ("geo:-35.3616,149.1652", GoalConfig(lat_deg=-35.3616, lon_deg=149.1652)),
+    ("GEO:-35.3616,149.1652,4", GoalConfig(lat_deg=-35.3616, lon_deg=149.1652, radius_m=4.0)),
+])
+def test_goal_command_line_forms(text, expected):
+    from companion.commands.run import parse_goal
+    assert parse_goal(text) == expected
+
+
+@pytest.mark.parametrize("text, message", [
+    ("geo:91,0", "--goal geo:91,0: lat_deg: expected a latitude in [-90, 90]"),
+    ("geo:1", "--goal: expected geo:LAT,LON"),
+    ("1,nan", "--goal: expected NORTH,EAST"),
+    ("north", "--goal: expected NORTH,EAST"),
+    ("1,2,0", "--goal 1,2,0: radius_m: expected a value > 0"),
+])
+def test_goal_command_line_mistakes_are_clear(text, message):
+    from companion.commands.run import parse_goal
+    from companion.errors import ConfigError
+    with pytest.raises(ConfigError) as err:
+        parse_goal(text)
+    assert str(err.value).startswith(message), err.value
+
+
+def test_goal_config_file_forms(tmp_path):
+    from companion.config import load_config
+    from companion.errors import ConfigError
+    base = open("config/companion.yaml").read()
+    good = tmp_path / "geo.yaml"
+    good.write_text(base.replace("goal: null", "goal: {lat_deg: -35.36, lon_deg: 149.16}"))
+    assert load_config(good).goal == GoalConfig(lat_deg=-35.36, lon_deg=149.16)
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(base.replace("goal: null", "goal: {lat_deg: -35.36, north_m: 3.0}"))
+    with pytest.raises(ConfigError, match=r"bad.yaml: goal.lat_deg: give north_m and east_m"):
+        load_config(bad)
