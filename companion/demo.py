@@ -39,6 +39,9 @@ COMMAND_TIMEOUT_S = 15.0
 STOP_TIMEOUT_S = 5.0
 SETTLE_TIMEOUT_S = 3.0
 POLL_S = 0.1
+TAKEOFF_ALT_M = 10.0             # NAV_TAKEOFF altitude above home (docs/real-vehicle.md workflow)
+TAKEOFF_ATTEMPTS = 3
+TAKEOFF_ACK_TIMEOUT_S = 2.0
 
 
 class DemoError(CompanionError):
@@ -78,7 +81,8 @@ def demo_config(scenario: Scenario, base_path: str = "config/companion.yaml",
         max_turn_rate_deg_s=scenario.vehicle.max_turn_rate_deg_s)
     return dataclasses.replace(base, estimator=scenario.estimator_config(),
                                avoidance=scenario.avoidance, commanding=commanding,
-                               goal=GoalConfig(goal.north_m, goal.east_m, goal.radius_m))
+                               goal=GoalConfig(goal.north_m, goal.east_m, goal.radius_m),
+                               flight=dataclasses.replace(base.flight, takeoff_alt_m=TAKEOFF_ALT_M))
 
 
 class Child:
@@ -159,10 +163,11 @@ async def wait_for(condition, what: str, timeout_s: float, children: list[Child]
         raise DemoError(f"timed out after {timeout_s:.0f} s waiting for {what}") from None
 
 
-async def command_until_accepted(link, msg_factory, name: str, children: list[Child]) -> None:
+async def command_until_accepted(link, msg_factory, name: str, children: list[Child],
+                                 timeout_s: float = COMMAND_TIMEOUT_S) -> None:
     """Send a command every COMMAND_RETRY_S until its COMMAND_ACK says accepted."""
     try:
-        async with asyncio.timeout(COMMAND_TIMEOUT_S):
+        async with asyncio.timeout(timeout_s):
             while True:
                 for child in children:
                     child.check_alive()
@@ -179,13 +184,13 @@ async def command_until_accepted(link, msg_factory, name: str, children: list[Ch
                 except TimeoutError:
                     pass
     except TimeoutError:
-        raise DemoError(f"the vehicle did not accept {name} within {COMMAND_TIMEOUT_S:.0f} s") \
-            from None
+        raise DemoError(f"the vehicle did not accept {name} within {timeout_s:.0f} s") from None
 
 
 async def ground_station(tcp_port: int, files: DemoFiles, scenario: Scenario, speedup: float,
                          children: list[Child], config: CompanionConfig) -> dict:
-    """Set GUIDED, arm, and wait for the companion to report arrival; returns its report."""
+    """Set GUIDED, arm, take off, and wait for the companion to report arrival; returns its
+    report."""
     key = read_signing_key(config.link)
     async with open_link(f"tcp:127.0.0.1:{tcp_port}",
                          codec.Encoder(GCS_SYSTEM_ID, codec.MAV_COMP_ID_MISSIONPLANNER, key),
@@ -197,15 +202,31 @@ async def ground_station(tcp_port: int, files: DemoFiles, scenario: Scenario, sp
             await command_until_accepted(
                 link, lambda: codec.set_mode(1, 1, config.link.guided_custom_mode), "set_mode",
                 children)
-            await command_until_accepted(link, lambda: codec.arm(1, 1), "arm", children)
-            log.info("GUIDED and armed: flying")
-            flight_s = scenario.mission.max_time_s / speedup + 30.0
+            await take_off(link, TAKEOFF_ALT_M, children)
+            flight_s = (scenario.mission.max_time_s + 30.0) / speedup + 30.0
             report = await wait_for(
                 lambda: (r := read_report(files.report)) and r.get("arrived") and r,
                 "the vehicle to arrive", flight_s, children)
             await wait_until_settled(files.truth)
             receiver.cancel()
     return report
+
+
+async def take_off(link, alt_m: float, children: list[Child]) -> None:
+    """Arm, then NAV_TAKEOFF to ``alt_m``: the companion, up since boot, commands once the climb
+    is over. ArduCopter disarms a vehicle left idle on the ground for DISARM_DELAY, and at a high
+    speedup those 10 s pass quickly: a refused takeoff (disarmed again) re-arms and retries."""
+    for attempt in range(1, TAKEOFF_ATTEMPTS + 1):
+        await command_until_accepted(link, lambda: codec.arm(1, 1), "arm", children)
+        try:
+            await command_until_accepted(link, lambda: codec.takeoff(1, 1, alt_m), "takeoff",
+                                         children, timeout_s=TAKEOFF_ACK_TIMEOUT_S)
+        except DemoError:
+            log.warning("takeoff refused (attempt %d): arming again", attempt)
+            continue
+        log.info("GUIDED, armed, taking off to %.0f m", alt_m)
+        return
+    raise DemoError(f"the vehicle refused NAV_TAKEOFF to {alt_m:.0f} m {TAKEOFF_ATTEMPTS} times")
 
 
 async def wait_until_settled(truth_path: Path) -> None:

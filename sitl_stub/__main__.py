@@ -68,6 +68,8 @@ class TruthLog:
             "t_s": round(t_s, 6), "north_m": truth.north_m, "east_m": truth.east_m,
             "yaw_rad": truth.yaw_rad, "speed_mps": truth.speed_mps, "armed": ap.armed,
             "mode": MODE_NAMES.get(ap.mode, str(ap.mode)),
+            "vel_north_mps": truth.vel_north_mps, "vel_east_mps": truth.vel_east_mps,
+            "up_m": truth.up_m, "vel_up_mps": truth.vel_up_mps, "landed": ap.flight.land_complete,
             "obstacles": [{"id": i, "north_m": n, "east_m": e, "radius_m": r}
                           for i, n, e, r in obstacles_at(sim.scenario.world.obstacles, t_s)],
             "odom_north_m": odom.north_m, "odom_east_m": odom.east_m, "odom_yaw_rad": odom.yaw_rad,
@@ -168,7 +170,7 @@ async def simulate(opts: Options, sim: Simulation, ap: Autopilot, cam: CameraCom
         while inbox:
             name, msg = inbox.popleft()
             hub.broadcast(handle_safely(ap, name, msg, t_s))
-        sim.step(ap.demand(t_s), ap.armed)
+        sim.step(ap.demand(t_s), ap.armed, ap.climb_limits())
         t_s = sim.t_s
         hub.broadcast(ap.after_step(t_s) + ap.periodic(t_s) + cam.periodic(t_s))
         if truth_log is not None:
@@ -209,6 +211,7 @@ async def run_stub(opts: Options) -> None:
 
     hub = LinkHub(opts.tcp, opts.udp, opts.sysid, on_message, drop_rate=opts.drop_rate,
                   seed=opts.seed, signing_key=opts.signing_key)
+    ap.on_signing_request = hub.set_signing_key
     stop = asyncio.Event()
     loop = asyncio.get_running_loop()
     for sig in (signal.SIGTERM, signal.SIGINT):
