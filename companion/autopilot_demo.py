@@ -15,11 +15,12 @@ service, sets GUIDED, arms (retrying through "PreArm: ..." refusals), sends NAV_
 the configured altitude and leaves the flight to the service until it reports arrival.
 
 Frames. The scenario has its own LOCAL_NED frame about world.origin. SITL's home is put at the
-scenario's start, and ArduPilot sets the EKF origin where the vehicle gets its first GPS fix,
-so the autopilot's LOCAL_NED is the scenario's shifted by the start: the service's goal is
-given as goal - start, the camera places the scenario by the GPS_GLOBAL_ORIGIN it receives,
-and scoring moves the service's track back by the origin the ground station receives (which
-must lie within ORIGIN_TOLERANCE_M of the start).
+scenario's start, and ArduPilot sets the EKF origin where the vehicle gets its first GPS fix
+(there). The service gets the goal as latitude/longitude and turns it into metres from that
+origin itself; the camera places the scenario by the GPS_GLOBAL_ORIGIN it receives, and
+scoring moves the service's track back by the origin the ground station receives (which must
+lie within ORIGIN_TOLERANCE_M of the start, or the vehicle did not start where the scenario
+says).
 
 Truth: SITL's SIMSTATE, the simulated vehicle itself (not the EKF's estimate); see
 flight_record.py.
@@ -98,12 +99,16 @@ def sitl_home(scenario: Scenario) -> sitl.Home:
     return sitl.Home(lat, lon, origin.alt_m, start.yaw_deg % 360.0)
 
 
-def service_config(scenario: Scenario):
-    """The stub demo's service settings, with the goal relative to the EKF origin (the start)."""
+def service_config(scenario: Scenario, takeoff_alt_m: float):
+    """The stub demo's service settings, with the goal as latitude/longitude (the service turns
+    it into metres with the EKF origin it asks the autopilot for, as an operator's geo goal) and
+    the takeoff altitude the ground station will send."""
     config = demo_config(scenario)
-    goal, start = scenario.world.goal, scenario.world.start
-    return dataclasses.replace(config, goal=GoalConfig(
-        goal.north_m - start.north_m, goal.east_m - start.east_m, goal.radius_m))
+    origin, goal = scenario.world.origin, scenario.world.goal
+    lat_deg, lon_deg = to_lat_lon_deg(origin.lat_deg, origin.lon_deg, goal.north_m, goal.east_m)
+    return dataclasses.replace(
+        config, goal=GoalConfig(radius_m=goal.radius_m, lat_deg=lat_deg, lon_deg=lon_deg),
+        flight=dataclasses.replace(config.flight, takeoff_alt_m=takeoff_alt_m))
 
 
 def _die_with_parent() -> None:
@@ -188,7 +193,7 @@ class GroundStation:
         sysid, compid = self.recorder.state.vehicle
         for msg_id in GCS_STREAMS:
             await self.command(lambda m=msg_id: codec.set_message_interval(
-                sysid, compid, m, TELEMETRY_RATE_HZ), gcs_codec.is_interval_ack,
+                sysid, compid, m, TELEMETRY_RATE_HZ), codec.is_set_message_interval_ack,
                 f"SET_MESSAGE_INTERVAL {msg_id}", READY_TIMEOUT_S)
 
 
@@ -228,8 +233,8 @@ async def fly(gcs: GroundStation, files: AutopilotFiles, scenario: Scenario, spe
                       lambda ack: codec.is_ack_for(ack, "set_mode"), "GUIDED", READY_TIMEOUT_S)
     await gcs.command(lambda: codec.arm(sysid, compid), lambda ack: codec.is_ack_for(ack, "arm"),
                       "arming", budget(ARM_BUDGET_S))
-    await gcs.command(lambda: gcs_codec.takeoff(sysid, compid, setup.takeoff_alt_m),
-                      gcs_codec.is_takeoff_ack, "NAV_TAKEOFF", READY_TIMEOUT_S)
+    await gcs.command(lambda: codec.takeoff(sysid, compid, setup.takeoff_alt_m),
+                      lambda ack: codec.is_ack_for(ack, "takeoff"), "NAV_TAKEOFF", READY_TIMEOUT_S)
     log.info("armed in GUIDED at %.1f s, taking off to %.1f m", state.t_s, setup.takeoff_alt_m)
     if setup.service_start == "airborne":
         await wait_for(lambda: _not_disarmed(state) and (state.relative_alt_m or 0.0)
@@ -268,7 +273,7 @@ async def run_autopilot_demo(scenario_path: Path, scenario: Scenario, files: Aut
     """Fly the scenario on ArduPilot SITL; returns (the service's report moved into the scenario
     frame, its config, the truth records, the takeoff checks)."""
     sitl.check_files(setup.binary, setup.defaults)
-    config = service_config(scenario)
+    config = service_config(scenario, setup.takeoff_alt_m)
     files.config.write_text(yaml.safe_dump(config_to_dict(config)))
     files.sitl_dir.mkdir(parents=True, exist_ok=False)
     recorder = FlightRecorder(files.truth, scenario, config.link.camera_component_id,

@@ -173,6 +173,13 @@ def _landed(landed_state: int | None, alt_m: float | None) -> bool:
     return alt_m is not None and alt_m < LANDED_ALT_M
 
 
+def _landed_name(own: int | None, truth_row: dict | None) -> str | None:
+    """The landed state the service had heard when it sent (its decision), else the ground
+    station's at that time (a 10 Hz record that can lag by a message)."""
+    state = own if own is not None else (truth_row["landed_state"] if truth_row else None)
+    return None if state is None else gcs_codec.LANDED_STATE_NAMES.get(state, str(state))
+
+
 def takeoff_checks(setpoints: list[dict], truth: list[dict], arrival_t_s: float | None) -> dict:
     """Setpoints while landed (by the ground station's view and by the service's own), the
     vehicle's state at the first setpoint, and whether it disarmed before arriving."""
@@ -194,8 +201,8 @@ def takeoff_checks(setpoints: list[dict], truth: list[dict], arrival_t_s: float 
         "armed_t_s": armed[0]["t_s"] if armed else None,
         "first_setpoint_t_s": setpoints[0]["t_s"] if setpoints else None,
         "first_setpoint_alt_m": first["alt_m"] if first else None,
-        "first_setpoint_landed_state": (gcs_codec.LANDED_STATE_NAMES.get(first["landed_state"])
-                                        if first else None),
+        "first_setpoint_landed_state": _landed_name(setpoints[0]["landed_state"] if setpoints
+                                                    else None, first),
         "max_alt_m": max(flown) if flown else None,
         "disarmed_before_arrival_t_s": disarmed[0] if disarmed else None,
     }

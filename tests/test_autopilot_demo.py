@@ -31,8 +31,12 @@ def test_home_is_the_start_and_the_goal_is_relative_to_it():
     origin = PAPER.world.origin
     assert to_north_east_m(origin.lat_deg, origin.lon_deg, home.lat_deg, home.lon_deg) == \
         pytest.approx((20.0, 0.0), abs=1e-6)
-    goal = service_config(PAPER).goal
-    assert (goal.north_m, goal.east_m, goal.radius_m) == (160.0, 0.0, 2.0)
+    config = service_config(PAPER, 12.0)
+    goal = config.goal
+    assert goal.is_geographic and goal.radius_m == 2.0
+    assert to_north_east_m(origin.lat_deg, origin.lon_deg, goal.lat_deg, goal.lon_deg) == \
+        pytest.approx((180.0, 0.0), abs=1e-6)
+    assert config.flight.takeoff_alt_m == 12.0
 
 
 def test_flat_earth_round_trip():
@@ -88,7 +92,9 @@ def test_takeoff_checks_count_setpoints_on_the_ground_and_a_disarm():
     assert checks["setpoints_while_landed"] == 1
     assert checks["setpoints_while_landed_by_service_tlog"] == 1
     assert checks["first_setpoint_alt_m"] == 0.0
-    assert checks["first_setpoint_landed_state"] == "on_ground"
+    assert checks["first_setpoint_landed_state"] == "on_ground"   # the ground station's view
+    heard = [dict(setpoints[0], landed_state=2)] + setpoints[1:]
+    assert takeoff_checks(heard, truth, None)["first_setpoint_landed_state"] == "in_air"
     assert checks["armed_t_s"] == 41.0 and checks["disarmed_before_arrival_t_s"] == 45.0
     assert takeoff_checks(setpoints[1:], truth, 44.8)["disarmed_before_arrival_t_s"] is None
     # without a landed state, the altitude decides

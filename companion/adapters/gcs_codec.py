@@ -110,24 +110,8 @@ def setpoint_time_s(msg) -> float:
     return msg.time_boot_ms / 1000.0
 
 
-def takeoff(target_system: int, target_component: int,
-            altitude_m: float) -> mavlink.MAVLink_command_long_message:
-    """MAV_CMD_NAV_TAKEOFF: in GUIDED, ArduCopter climbs to param7 metres above home."""
-    return mavlink.MAVLink_command_long_message(
-        target_system, target_component, mavlink.MAV_CMD_NAV_TAKEOFF, 0,
-        0, 0, 0, 0, 0, 0, float(altitude_m))
-
-
 def request_message(target_system: int, target_component: int,
                     msg_id: int) -> mavlink.MAVLink_command_long_message:
     return mavlink.MAVLink_command_long_message(
         target_system, target_component, mavlink.MAV_CMD_REQUEST_MESSAGE, 0,
         float(msg_id), 0, 0, 0, 0, 0, 0)
-
-
-def is_takeoff_ack(ack) -> bool:
-    return ack.command == mavlink.MAV_CMD_NAV_TAKEOFF
-
-
-def is_interval_ack(ack) -> bool:
-    return ack.command == mavlink.MAV_CMD_SET_MESSAGE_INTERVAL
