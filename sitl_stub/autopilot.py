@@ -33,7 +33,7 @@ POSITION_CONTROL_MODES = (tm.MODE_GUIDED, tm.MODE_LOITER, tm.MODE_POSHOLD, tm.MO
 FORCE_DISARM_MAGIC = 21196.0
 BATTERY_CAPACITY_MAH = 5200.0
 BATTERY_FULL_MV, BATTERY_EMPTY_MV = 12600.0, 10500.0
-CURRENT_IDLE_A, CURRENT_ARMED_A, CURRENT_FLYING_A = 0.5, 2.0, 15.0
+CURRENT_IDLE_A, CURRENT_ARMED_A, CURRENT_FLYING_A = 0.5, 2.0, 28.0   # 28 A: the SITL binary hovering
 
 ACCEPTED = mavlink.MAV_RESULT_ACCEPTED
 DENIED = mavlink.MAV_RESULT_DENIED
@@ -72,8 +72,11 @@ class Autopilot:
             return GROUNDED     # disarmed, or landed: ground handling, motors idle
         if self.mode == tm.MODE_LAND:
             return Demand(climb_mps=-self._land_speed_mps())
-        if self.flight.takeoff is not None:
-            return Demand(target_up_m=self.flight.takeoff.target_up_m)
+        takeoff = self.flight.takeoff
+        if takeoff is not None:
+            if not takeoff.climbing(t_s):
+                return GROUNDED     # spooling up: still standing on the ground, nothing moves
+            return Demand(target_up_m=takeoff.target_up_m)
         if self.mode != tm.MODE_GUIDED:
             return Demand(target_up_m=self.hold_up_m)   # decelerate and hold
         cruise = self.cruise_override_mps or self.params.get("WPNAV_SPEED") / 100.0
@@ -151,7 +154,7 @@ class Autopilot:
             return tm.battery_status(voltage, current, int(self.consumed_mah), remaining)
         if msg_id == streams.MSG_EXTENDED_SYS_STATE:
             return tm.extended_sys_state(self.flight.landed_state(self.mode == tm.MODE_LAND),
-                                         flight.MAV_VTOL_STATE_UNDEFINED)
+                                         flight.MAV_VTOL_STATE_MC)
         if msg_id == streams.MSG_GPS_RAW_INT:
             lat, lon = origin.to_lat_lon_deg(*sim.reported_position_ne_m())
             return tm.gps_raw_int(t_s, has_gps, lat, lon, origin.alt_m + sim.truth.up_m,
@@ -298,7 +301,7 @@ class Autopilot:
         elif command == mavlink.MAV_CMD_DO_SET_MODE:
             result = self._set_mode_common(_as_int(p[0]), _as_int(p[1]), t_s)
         elif command == mavlink.MAV_CMD_NAV_TAKEOFF:
-            result = self._takeoff(p[6])
+            result = self._takeoff(p[6], t_s)
         elif command == mavlink.MAV_CMD_NAV_LAND:
             result = self._set_mode_common(mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, tm.MODE_LAND, t_s)
         elif command == mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH:
@@ -348,14 +351,14 @@ class Autopilot:
             return self._stream_message(msg_id, t_s, self.sim.scenario.world.origin)
         return None
 
-    def _takeoff(self, alt_m: float) -> int:
+    def _takeoff(self, alt_m: float, t_s: float) -> int:
         """GCS_MAVLINK_Copter::handle_MAV_CMD_NAV_TAKEOFF -> Mode::do_user_takeoff: param7 is the
         altitude above home (m)."""
         if not math.isfinite(alt_m):
             return DENIED
         target_up_m = self.home[2] + alt_m
         refused = self.flight.start_takeoff(target_up_m, self.sim.truth.up_m, self.armed,
-                                            self.mode in USER_TAKEOFF_MODES)
+                                            self.mode in USER_TAKEOFF_MODES, t_s)
         if refused is not None:
             log.warning("takeoff refused: %s", refused)
             return FAILED

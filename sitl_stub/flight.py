@@ -10,7 +10,7 @@ Sources (ArduPilot, ArduCopter/):
   submode. ``velaccel_control_run`` et al.: ``is_disarmed_or_landed()`` -> motors idle
   (``make_safe_ground_handling``), so a velocity target while landed never lifts off.
 - GCS_MAVLink_Copter.cpp ``landed_state``: ON_GROUND if land_complete, LANDING in a landing
-  mode, TAKEOFF while taking off, else IN_AIR. ``vtol_state`` is the base class's UNDEFINED.
+  mode, TAKEOFF while taking off, else IN_AIR. ``vtol_state``: MC (3), as the binary sends it.
 - land_detector.cpp: landed after LAND_DETECTOR_TRIGGER_SEC (1 s) at rest on the ground.
 - motors.cpp ``auto_disarm_check``: disarm after DISARM_DELAY s landed with idle motors
   (0 disables). mode_land.cpp: LAND disarms as soon as it has landed.
@@ -27,13 +27,21 @@ MAV_LANDED_STATE_ON_GROUND = 1
 MAV_LANDED_STATE_IN_AIR = 2
 MAV_LANDED_STATE_TAKEOFF = 3
 MAV_LANDED_STATE_LANDING = 4
-MAV_VTOL_STATE_UNDEFINED = 0
+MAV_VTOL_STATE_MC = 3                # what the ArduCopter 4.6 SITL binary sends
+# Motors spool up (MOT_SPOOL_TIME 0.5 s) and the throttle ramps (TKOFF_SLEW_TIME 2 s) before the
+# climb: the 4.6 binary said ON_GROUND for 2.8 s after accepting NAV_TAKEOFF, then TAKEOFF.
+TAKEOFF_SPOOL_UP_S = 2.5
 
 
 @dataclass(frozen=True)
 class Takeoff:
     target_up_m: float
+    start_t_s: float = 0.0
     complete: bool = False
+
+    def climbing(self, t_s: float) -> bool:
+        """Spooled up: the climb has begun."""
+        return t_s - self.start_t_s >= TAKEOFF_SPOOL_UP_S - 1e-9
 
 
 class FlightState:
@@ -55,7 +63,7 @@ class FlightState:
         return self.land_complete and not self.taking_off
 
     def start_takeoff(self, target_up_m: float, up_m: float, armed: bool,
-                      mode_allows: bool) -> str | None:
+                      mode_allows: bool, t_s: float = 0.0) -> str | None:
         """Mode::do_user_takeoff. Returns None if started, else why it was refused."""
         if not armed:
             return "not armed"
@@ -65,7 +73,7 @@ class FlightState:
             return "mode has no user takeoff"
         if not target_up_m > up_m:
             return "cannot take off downwards"
-        self.takeoff = Takeoff(target_up_m)
+        self.takeoff = Takeoff(target_up_m, t_s)
         self._disarm_timer_s = None
         return None
 
@@ -96,7 +104,7 @@ class FlightState:
                 self.land_complete = False
             stop_m = 0.5 * (TAKEOFF_VEL_FRACTION * max_up_mps) ** 2 / accel_up_mps2
             if up_m >= takeoff.target_up_m - stop_m and vel_up_mps < TAKEOFF_VEL_FRACTION * max_up_mps:
-                self.takeoff = Takeoff(takeoff.target_up_m, complete=True)
+                self.takeoff = Takeoff(takeoff.target_up_m, takeoff.start_t_s, complete=True)
         if not self.land_complete and not self.taking_off:
             at_rest = up_m <= GROUND_ALT_M and abs(vel_up_mps) < 0.05
             if not at_rest:

@@ -77,7 +77,9 @@ def heartbeat_camera() -> mavlink.MAVLink_message:
 
 
 # SYS_STATUS sensor bits as ArduCopter sets them (GCS::update_sensor_status_flags in
-# libraries/GCS_MAVLink/GCS.cpp, GCS_Copter::update_vehicle_sensor_status_flags).
+# libraries/GCS_MAVLink/GCS.cpp, GCS_Copter::update_vehicle_sensor_status_flags), checked against
+# the ArduCopter 4.6 SITL binary in /work/shared/ardupilot (present 0x5371fc2f with its GPS, RC
+# and propulsion bits; the stub has no RC receiver or ESC telemetry).
 _S = mavlink
 SENSORS_ALWAYS = (_S.MAV_SYS_STATUS_SENSOR_3D_GYRO | _S.MAV_SYS_STATUS_SENSOR_3D_ACCEL
                   | _S.MAV_SYS_STATUS_SENSOR_3D_MAG | _S.MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE
@@ -85,27 +87,31 @@ SENSORS_ALWAYS = (_S.MAV_SYS_STATUS_SENSOR_3D_GYRO | _S.MAV_SYS_STATUS_SENSOR_3D
                   | _S.MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS | _S.MAV_SYS_STATUS_PREARM_CHECK
                   | _S.MAV_SYS_STATUS_SENSOR_ANGULAR_RATE_CONTROL
                   | _S.MAV_SYS_STATUS_SENSOR_ATTITUDE_STABILIZATION
-                  | _S.MAV_SYS_STATUS_SENSOR_YAW_POSITION)
+                  | _S.MAV_SYS_STATUS_SENSOR_YAW_POSITION | _S.MAV_SYS_STATUS_LOGGING
+                  | _S.MAV_SYS_STATUS_TERRAIN)
 SENSORS_POSITION_CONTROL = (_S.MAV_SYS_STATUS_SENSOR_Z_ALTITUDE_CONTROL
                             | _S.MAV_SYS_STATUS_SENSOR_XY_POSITION_CONTROL)
+# Healthy whether present or not: a fence that has not failed, a proximity sensor that is absent.
+SENSORS_HEALTHY_ANYWAY = _S.MAV_SYS_STATUS_GEOFENCE | _S.MAV_SYS_STATUS_SENSOR_PROXIMITY
 
 
 def sys_status(has_gps: bool, position_control_active: bool, voltage_mv: int, current_ca: int,
                remaining_pct: int) -> mavlink.MAVLink_message:
     """Present / enabled / healthy sensor bits as ArduCopter reports a healthy vehicle.
 
-    GEOFENCE: not present, not enabled, but healthy (``!fence->sys_status_failed()``): a ground
-    station reads a cleared health bit of a fence as a breach (MAVProxy says "fence breach").
-    The position controllers are enabled (and healthy) only while active.
+    GEOFENCE: present (ArduCopter has a fence), not enabled, but healthy
+    (``!fence->sys_status_failed()``): a ground station reads a cleared health bit of a fence as a
+    breach (MAVProxy says "fence breach"). The position controllers are enabled (and healthy)
+    only while active.
     """
-    present = SENSORS_ALWAYS | SENSORS_POSITION_CONTROL
+    present = SENSORS_ALWAYS | SENSORS_POSITION_CONTROL | _S.MAV_SYS_STATUS_GEOFENCE
     enabled = SENSORS_ALWAYS
     if has_gps:
         present |= _S.MAV_SYS_STATUS_SENSOR_GPS
         enabled |= _S.MAV_SYS_STATUS_SENSOR_GPS
     if position_control_active:
         enabled |= SENSORS_POSITION_CONTROL
-    health = enabled | _S.MAV_SYS_STATUS_GEOFENCE
+    health = enabled | SENSORS_HEALTHY_ANYWAY
     return mavlink.MAVLink_sys_status_message(present, enabled, health, 0, voltage_mv, current_ca,
                                               remaining_pct, 0, 0, 0, 0, 0, 0)
 
@@ -114,8 +120,8 @@ def battery_status(voltage_mv: int, current_ca: int, consumed_mah: int,
                    remaining_pct: int) -> mavlink.MAVLink_message:
     cells = [voltage_mv] + [UINT16_MAX] * 9
     return mavlink.MAVLink_battery_status_message(
-        0, mavlink.MAV_BATTERY_FUNCTION_UNKNOWN, mavlink.MAV_BATTERY_TYPE_LIPO, 32767, cells,
-        current_ca, consumed_mah, -1, remaining_pct)
+        0, mavlink.MAV_BATTERY_FUNCTION_UNKNOWN, mavlink.MAV_BATTERY_TYPE_UNKNOWN, 32767, cells,
+        current_ca, consumed_mah, -1, remaining_pct, 0, mavlink.MAV_BATTERY_CHARGE_STATE_OK)
 
 
 def extended_sys_state(landed_state: int, vtol_state: int) -> mavlink.MAVLink_message:

@@ -38,10 +38,14 @@ def test_nav_takeoff_in_guided_climbs_to_the_target_at_wpnav_speed_up():
     rig = Rig()
     rig.guided_armed()
     assert landed_state(rig) == ON_GROUND
+    ext = rig.ap._stream_message(streams.MSG_EXTENDED_SYS_STATE, 0.0, rig.sim.scenario.world.origin)
+    assert ext.vtol_state == mavlink.MAV_VTOL_STATE_MC          # as the 4.6 binary sends it
     assert rig.cmd(TAKEOFF_CMD, 0, 0, 0, 0, 0, 0, 10.0)[0] == mavlink.MAV_RESULT_ACCEPTED
-    rig.run(0.5)
+    rig.run(2.0)                                                 # spooling up (the binary: 2.8 s)
+    assert landed_state(rig) == ON_GROUND and rig.sim.truth.up_m == 0.0
+    rig.run(1.0)
     assert landed_state(rig) == TAKEOFF
-    rig.run(3.5)
+    rig.run(3.0)
     assert rig.sim.truth.vel_up_mps == pytest.approx(2.5)       # WPNAV_SPEED_UP 250 cm/s
     assert rig.sim.truth.speed_mps == 0.0                        # straight up
     for _ in range(100):
@@ -173,7 +177,7 @@ def test_sys_status_bits_as_arducopter_sets_them():
     origin = rig.sim.scenario.world.origin
     st = rig.ap._stream_message(streams.MSG_SYS_STATUS, 0.0, origin)
     fence = mavlink.MAV_SYS_STATUS_GEOFENCE
-    assert not st.onboard_control_sensors_present & fence      # no fence ...
+    assert not st.onboard_control_sensors_enabled & fence      # a fence, not enabled ...
     assert st.onboard_control_sensors_health & fence            # ... and no breach
     for bit in (mavlink.MAV_SYS_STATUS_PREARM_CHECK, mavlink.MAV_SYS_STATUS_SENSOR_GPS,
                 mavlink.MAV_SYS_STATUS_AHRS, mavlink.MAV_SYS_STATUS_SENSOR_3D_GYRO,
@@ -188,7 +192,7 @@ def test_sys_status_bits_as_arducopter_sets_them():
     assert st.onboard_control_sensors_enabled & xy and st.onboard_control_sensors_health & xy
     assert st.voltage_battery < 12600 and 0 < st.battery_remaining <= 100
     bat = rig.ap._stream_message(streams.MSG_BATTERY_STATUS, rig.sim.t_s, origin)
-    assert bat.current_battery == 1500 and bat.current_consumed > 0
+    assert bat.current_battery == 2800 and bat.current_consumed > 0
 
 
 def test_gps_raw_int_and_ekf_status_with_and_without_gps():
