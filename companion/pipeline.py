@@ -462,7 +462,7 @@ class Pipeline:
     def _safe(self, t_link_s: float, t_s: float, reason: str, out: list[Output]) -> None:
         # ERROR (and a STATUSTEXT) once per reason while commanding; before that (on the ground,
         # camera not up yet) it is only worth an INFO line.
-        commanding = self.commanding_allowed(t_link_s)
+        commanding = self.commanding_allowed(t_link_s) and self.phase.decide(t_s).may_command
         if (reason, commanding) != (self._safe_reason, self._safe_logged_commanding):
             action = self.config.failsafe.safe_action
             if commanding:
