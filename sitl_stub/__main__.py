@@ -261,8 +261,14 @@ def main(argv: list[str] | None = None) -> int:
         except (ValueError, ScenarioError) as exc:
             print(f"sitl-stub: error: {exc}", file=sys.stderr, flush=True)
             return EXIT_USAGE
-        from .camera_only import run_camera
-        return run_camera(cam_opts)
+        from .camera_only import CameraLinkError, run_camera
+        try:
+            run_camera(cam_opts, lambda url: print(f"SITL_STUB CAMERA READY connect={url}",
+                                                   flush=True))
+        except CameraLinkError as exc:
+            print(f"sitl-stub: error: {exc}", file=sys.stderr, flush=True)
+            return EXIT_USAGE
+        return 0
     try:
         opts = parse_options(argv)
     except (ValueError, ScenarioError) as exc:

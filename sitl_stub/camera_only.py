@@ -3,18 +3,18 @@
 One MAVLink link (pymavlink's connection strings: udpin:, udpout:, tcp:, tcpin:, a serial
 device), one blocking loop: receive with a short timeout, hand every message to
 :class:`~sitl_stub.external_camera.ExternalCamera`, send what it returns as (vehicle system id,
-component 100). Prints one line to stdout once the link is open,
-`SITL_STUB CAMERA READY connect=URL` (with the port actually bound for a udpin/tcpin port 0),
-logs to stderr; SIGTERM/SIGINT: exit 0 after logging its counters.
+component 100). Once the link is open it calls ``on_ready(url)`` with the port actually bound
+(for a udpin/tcpin port 0): ``__main__`` prints `SITL_STUB CAMERA READY connect=URL`.
+SIGTERM/SIGINT: return after logging its counters.
 """
 from __future__ import annotations
 
 import logging
 import os
 import signal
-import sys
 import time
 from dataclasses import dataclass
+from typing import Callable
 
 os.environ.setdefault("MAVLINK20", "1")   # before mavutil picks its dialect: MAVLink 2 framing
 from pymavlink import mavutil  # noqa: E402
@@ -60,7 +60,11 @@ def _bound_url(conn, url: str) -> str:
     return url
 
 
-def run_camera(opts: CameraOptions) -> int:
+class CameraLinkError(Exception):
+    """The camera's link could not be opened."""
+
+
+def run_camera(opts: CameraOptions, on_ready: Callable[[str], None]) -> None:
     stop = []
     for sig in (signal.SIGTERM, signal.SIGINT):
         signal.signal(sig, lambda *_: stop.append(True))
@@ -68,16 +72,14 @@ def run_camera(opts: CameraOptions) -> int:
         conn = mavutil.mavlink_connection(opts.connect, source_system=opts.sysid or 1,
                                           source_component=tm.COMP_CAMERA, autoreconnect=True)
     except OSError as exc:
-        print(f"sitl-stub: error: cannot open {opts.connect}: {exc.strerror or exc}",
-              file=sys.stderr, flush=True)
-        return 2
+        raise CameraLinkError(f"cannot open {opts.connect}: {exc.strerror or exc}") from exc
     cam = ExternalCamera(opts.scenario, make_rng(opts.seed, STREAM_CAMERA), opts.sysid,
                          opts.placement, opts.sectors)
     log.info("camera for scenario %r (%s): %g Hz, fov %.0f deg, range %.0f m, sectors %s, seed %d",
              opts.scenario.name, opts.scenario.path, cam.cfg.rate_hz,
              cam.cfg.fov_rad * 57.29577951308232, cam.cfg.max_range_m,
              "on" if cam.sectors else "off", opts.seed)
-    print(f"SITL_STUB CAMERA READY connect={_bound_url(conn, opts.connect)}", flush=True)
+    on_ready(_bound_url(conn, opts.connect))
     sent = bad = 0
     try:
         while not stop:
@@ -98,4 +100,3 @@ def run_camera(opts: CameraOptions) -> int:
     finally:
         log.info("camera stopped: %s; sent %d, bad data %d", cam.counters, sent, bad)
         conn.close()
-    return 0
