@@ -221,7 +221,7 @@ async def fly(gcs: GroundStation, files: AutopilotFiles, scenario: Scenario, spe
     offset_m = math.hypot(state.origin_ne_m[0] - start.north_m, state.origin_ne_m[1] - start.east_m)
     if offset_m > ORIGIN_TOLERANCE_M:
         raise DemoError(f"the EKF origin is {offset_m:.1f} m from the scenario's start (SITL's "
-                        "home): the service's goal would be off by as much")
+                        "home): the vehicle did not start where the scenario says")
     log.info("EKF ready at %.1f s; origin at north %.2f m, east %.2f m of the scenario frame",
              state.t_s, *state.origin_ne_m)
     if setup.service_start == "boot":
@@ -254,7 +254,9 @@ def _not_disarmed(state) -> bool:
         texts = "\n".join(state.status_texts[-5:])
         raise DemoError(f"the vehicle disarmed at {state.disarmed_t_s:.1f} s (armed at "
                         f"{state.armed_t_s:.1f} s, {state.relative_alt_m or 0.0:.1f} m above home) "
-                        f"before the service arrived; the autopilot's last messages:\n{texts}")
+                        "before the service arrived (ArduCopter disarms a vehicle left on the "
+                        "ground for DISARM_DELAY, as when a velocity setpoint replaces its "
+                        f"takeoff); the autopilot's last messages:\n{texts}")
     return True
 
 
