@@ -119,3 +119,16 @@ def test_the_autopilot_demo_refuses_clearly(tmp_path):
     done = companion_demo("--autopilot", str(tmp_path / "arducopter"),
                           "--autopilot-defaults", str(parm), "--drop-rate", "0.1")
     assert done.returncode == 2 and "not with --autopilot" in done.stderr
+
+
+def test_a_disarm_before_arrival_stops_the_demo_with_the_autopilots_words():
+    from companion.autopilot_demo import _not_disarmed
+    from companion.demo import DemoError
+    from companion.flight_record import VehicleState
+    state = VehicleState(armed_t_s=42.0, relative_alt_m=0.0,
+                         status_texts=["42.0 s: Arming motors", "52.0 s: Disarming motors"])
+    assert _not_disarmed(state)
+    state.disarmed_t_s = 52.0
+    with pytest.raises(DemoError, match=r"disarmed at 52.0 s \(armed at 42.0 s, 0.0 m above "
+                                        r"home\)(.|\n)*52.0 s: Disarming motors"):
+        _not_disarmed(state)

@@ -161,3 +161,19 @@ def test_commands_to_the_camera_are_unsupported():
     (ack,) = cam.handle(cmd, 0.0)
     assert ack.result == mavlink.MAV_RESULT_UNSUPPORTED
     assert (ack.target_system, ack.target_component) == (255, 190)
+
+
+def test_data_streams_too_only_if_no_interval_request_was_accepted():
+    def requests(cam, polls):
+        out = []
+        for k in range(polls):
+            out += cam.poll(10.0 + 2.5 * k)
+        return [m for m in out if m.get_type() == "REQUEST_DATA_STREAM"]
+    silent = ready_camera()
+    assert requests(silent, 2) == []
+    assert {m.req_stream_id for m in requests(silent, 4)} == {
+        mavlink.MAV_DATA_STREAM_POSITION, mavlink.MAV_DATA_STREAM_EXTRA1}
+    acked = ready_camera()
+    acked.handle(heard(7, 1, mavlink.MAVLink_command_ack_message(
+        mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, mavlink.MAV_RESULT_ACCEPTED, 0, 0, 7, 100)), 0.0)
+    assert requests(acked, 6) == []
