@@ -221,41 +221,40 @@ async def ground_station(tcp_port: int, files: DemoFiles, scenario: Scenario, sp
 
 async def take_off(link, alt_m: float, children: list[Child], climb_timeout_s: float,
                    retry_s: float = COMMAND_RETRY_S) -> None:
-    """Arm, then NAV_TAKEOFF to ``alt_m`` until the vehicle is seen climbing: the companion, up
-    since boot, commands once the climb is over. The climb is the evidence, not the ACK: an ACK
-    lost on a lossy link makes the resent takeoff look refused (ArduCopter refuses a second one
-    in the air). ArduCopter disarms a vehicle left idle on the ground for DISARM_DELAY, and at a
-    high speedup those 10 s pass quickly: no climb in time, arm again and retry."""
+    """Arm, then NAV_TAKEOFF to ``alt_m`` until it is accepted or the vehicle is seen climbing:
+    the companion, up since boot, commands once the climb is over. The climb counts as much as
+    the ACK: an ACK lost on a lossy link makes the resent takeoff look refused (ArduCopter refuses
+    a second one in the air). ArduCopter disarms a vehicle left idle on the ground for
+    DISARM_DELAY, and at a high speedup those 10 s pass quickly: nothing in time, arm again."""
     for attempt in range(1, TAKEOFF_ATTEMPTS + 1):
         await command_until_accepted(link, lambda: codec.arm(1, 1), "arm", children,
                                      retry_s=retry_s)
-        if await wait_for_climb(link, lambda: codec.takeoff(1, 1, alt_m), climb_timeout_s,
-                                children, retry_s):
+        if await wait_for_takeoff(link, lambda: codec.takeoff(1, 1, alt_m), climb_timeout_s,
+                                  children, retry_s):
             log.info("GUIDED, armed, taking off to %.0f m", alt_m)
             return
-        log.warning("no climb after NAV_TAKEOFF (attempt %d): arming again", attempt)
+        log.warning("NAV_TAKEOFF neither accepted nor climbing (attempt %d): arming again",
+                    attempt)
     raise DemoError(f"the vehicle did not take off to {alt_m:.0f} m in {TAKEOFF_ATTEMPTS} tries")
 
 
-async def wait_for_climb(link, takeoff_factory, timeout_s: float, children: list[Child],
-                         retry_s: float) -> bool:
-    """Send NAV_TAKEOFF every ``retry_s`` until accepted; True once LOCAL_POSITION_NED shows
-    the vehicle CLIMB_EVIDENCE_M up, False after ``timeout_s``."""
-    accepted = False
+async def wait_for_takeoff(link, takeoff_factory, timeout_s: float, children: list[Child],
+                           retry_s: float) -> bool:
+    """Send NAV_TAKEOFF every ``retry_s``; True once it is accepted or LOCAL_POSITION_NED (if the
+    link carries it) shows the vehicle CLIMB_EVIDENCE_M up; False after ``timeout_s``."""
     try:
         async with asyncio.timeout(timeout_s):
             while True:
                 for child in children:
                     child.check_alive()
-                if not accepted:
-                    link.send(takeoff_factory())
+                link.send(takeoff_factory())
                 try:
                     async with asyncio.timeout(retry_s):
                         while True:
                             event = codec.decode((await link.inbox.get()).msg)
                             if isinstance(event, codec.CommandAck) and \
-                                    codec.is_ack_for(event, "takeoff"):
-                                accepted = accepted or event.accepted
+                                    codec.is_ack_for(event, "takeoff") and event.accepted:
+                                return True
                             elif isinstance(event, codec.LocalPosition) and \
                                     event.component_id == codec.MAV_COMP_ID_AUTOPILOT1 and \
                                     event.down_m < -CLIMB_EVIDENCE_M:
