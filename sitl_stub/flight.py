@@ -73,7 +73,9 @@ class FlightState:
             return "mode has no user takeoff"
         if not target_up_m > up_m:
             return "cannot take off downwards"
-        self.takeoff = Takeoff(target_up_m, t_s)
+        # A repeated takeoff while spooling up keeps the motors' spool-up (they are running).
+        start = self.takeoff.start_t_s if self.taking_off else t_s
+        self.takeoff = Takeoff(target_up_m, start)
         self._disarm_timer_s = None
         return None
 
