@@ -123,12 +123,15 @@ class FakeVehicle:
             mavlink.MAV_STATE_ACTIVE, 3))
 
     def odometry(self) -> None:
-        """ATTITUDE then LOCAL_POSITION_NED of the same time: hovering at (20, 0), facing north."""
+        """ATTITUDE, EXTENDED_SYS_STATE (in the air: the daemon commands only then) and
+        LOCAL_POSITION_NED of the same time: hovering 10 m up at (20, 0), facing north."""
         self.t_ms += STEP_MS
         self.send(self._autopilot, mavlink.MAVLink_attitude_message(
             self.t_ms, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0))
+        self.send(self._autopilot, mavlink.MAVLink_extended_sys_state_message(
+            mavlink.MAV_VTOL_STATE_MC, mavlink.MAV_LANDED_STATE_IN_AIR))
         self.send(self._autopilot, mavlink.MAVLink_local_position_ned_message(
-            self.t_ms, 20.0, 0.0, 0.0, 0.0, 0.0, 0.0))
+            self.t_ms, 20.0, 0.0, -10.0, 0.0, 0.0, 0.0))
 
     def obstacle(self, index: int) -> int:
         """One OBSTACLE_DISTANCE_3D at the current time; returns the send time (ns)."""

@@ -3,8 +3,8 @@
     python -m benchmarks.soak [--minutes 5] [--speedup 20] [--scenario config/scenarios/soak.yaml]
 
 Starts sitl-stub (the soak scenario: a field of obstacles, then a goal no soak reaches) and the
-daemon (`companion run --report`, so the track is recorded too, as the demo does), sets GUIDED
-and arms as a ground station, and samples the daemon's resident memory (psutil) every few
+daemon (`companion run --report`, so the track is recorded too, as the demo does), sets GUIDED,
+arms and takes off to 10 m as a ground station, and samples the daemon's resident memory (psutil) every few
 seconds of wall time. Prints RSS at the first minute and at the end, the growth between them,
 the simulated distance flown, and the daemon's counters from its final report.
 """
@@ -97,6 +97,7 @@ def soak(minutes: float, speedup: float, scenario: Path, workdir: Path) -> SoakR
             time.sleep(0.1)
         _command(gcs, mavutil.mavlink.MAV_CMD_DO_SET_MODE, 1, 4)
         _command(gcs, mavutil.mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1)
+        _command(gcs, mavutil.mavlink.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, 0, 0, 10.0)  # airborne first
         process = psutil.Process(daemon.pid)
         started = time.monotonic()
         samples: list[tuple[float, float]] = []

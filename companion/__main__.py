@@ -24,7 +24,7 @@ from companion.errors import CompanionError
 COMMANDS = ("simulate", "campaign", "run", "demo", "replay")
 
 
-def main(argv: list[str] | None = None) -> int:
+def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="companion", description=(
         "Companion-computer obstacle avoidance for MAVLink drones (EKF-SLAM + collision cone)."))
     parser.add_argument("-v", "--verbose", action="count", default=0,
@@ -32,7 +32,11 @@ def main(argv: list[str] | None = None) -> int:
     sub = parser.add_subparsers(dest="command", required=True)
     for name in COMMANDS:
         importlib.import_module(f"companion.commands.{name}").add_parser(sub)
-    args = parser.parse_args(argv)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
     level = {0: logging.WARNING, 1: logging.INFO}.get(args.verbose, logging.DEBUG)
     logging.basicConfig(level=level, stream=sys.stderr,
                         format="%(asctime)s %(levelname)s %(name)s: %(message)s")

@@ -15,6 +15,7 @@ from companion.core.ekf_slam import AssociationGates, SlamNoise
 from companion.core.guidance import GuidanceParams
 from companion.core.union import UnionParams
 from companion.errors import ConfigError
+from companion.flight_phase import FlightPhaseParams
 
 
 PLAUSIBLE_SPEED_MPS = 50.0       # faster is no multicopter (the pipeline refuses such odometry)
@@ -124,10 +125,21 @@ class VehicleConfig:
 class NoiseConfig:
     speed_sigma_mps: float
     heading_change_sigma_deg: float
+    # GPS-like position error and extra odometry noise, used by sitl-stub (docs/sitl_stub.md)
+    velocity_sigma_mps: float = 0.0
+    yaw_sigma_deg: float = 0.0
+    position_sigma_m: float | None = None     # null: no GPS
+    position_bias_sigma_m: float = 0.0
+    position_bias_tau_s: float = 300.0
 
     def __post_init__(self) -> None:
         _sigma("speed_sigma_mps", self.speed_sigma_mps)
         _sigma("heading_change_sigma_deg", self.heading_change_sigma_deg)
+        for key in ("velocity_sigma_mps", "yaw_sigma_deg", "position_bias_sigma_m"):
+            require(getattr(self, key) >= 0.0, key, getattr(self, key), "a sigma >= 0")
+        require(self.position_sigma_m is None or self.position_sigma_m >= 0.0, "position_sigma_m",
+                self.position_sigma_m, "a sigma >= 0 or null")
+        _positive("position_bias_tau_s", self.position_bias_tau_s)
 
 
 @dataclass(frozen=True)
@@ -333,6 +345,8 @@ class StreamsConfig:
     """Telemetry the companion asks the autopilot for, and how it asks."""
     attitude_rate_hz: float = 10.0
     local_position_rate_hz: float = 10.0
+    landed_state_rate_hz: float = 2.0         # EXTENDED_SYS_STATE (flight phases)
+    global_position_rate_hz: float = 2.0      # GLOBAL_POSITION_INT (altitude above home)
     ack_timeout_s: float = 1.0                # SET_MESSAGE_INTERVAL unanswered: retry, then fall back
     attempts: int = 3
     rerequest_after_s: float = 3.0            # no odometry this long after a request: ask again
@@ -341,8 +355,9 @@ class StreamsConfig:
     max_reasserts: int = 5                    # at most this many in a row while the rate stays low
 
     def __post_init__(self) -> None:
-        for key in ("attitude_rate_hz", "local_position_rate_hz", "ack_timeout_s",
-                    "rerequest_after_s", "rate_check_s"):
+        for key in ("attitude_rate_hz", "local_position_rate_hz", "landed_state_rate_hz",
+                    "global_position_rate_hz", "ack_timeout_s", "rerequest_after_s",
+                    "rate_check_s"):
             _positive(key, getattr(self, key))
         require(self.attempts >= 1, "attempts", self.attempts, "an integer >= 1")
         require(0.0 < self.min_rate_fraction <= 1.0, "min_rate_fraction", self.min_rate_fraction,
@@ -419,7 +434,67 @@ class SafetyConfig:
         return math.radians(self.max_yaw_rate_deg_s)
 
 
-GoalConfig = Goal          # the service's goal section has the scenario's goal fields
+@dataclass(frozen=True)
+class GoalConfig:
+    """The service's goal: north/east metres in LOCAL_NED (from the EKF origin), or a latitude
+    and longitude, converted with the EKF origin (or HOME) that the service asks the vehicle for."""
+    north_m: float | None = None
+    east_m: float | None = None
+    radius_m: float = 2.0
+    lat_deg: float | None = None
+    lon_deg: float | None = None
+
+    def __post_init__(self) -> None:
+        _positive("radius_m", self.radius_m)
+        local = (self.north_m, self.east_m)
+        geo = (self.lat_deg, self.lon_deg)
+        if any(v is not None for v in local) and any(v is not None for v in geo):
+            raise FieldError("lat_deg", "give north_m and east_m, or lat_deg and lon_deg, not both")
+        if self.is_geographic:
+            if None in geo:
+                raise FieldError("lon_deg" if self.lon_deg is None else "lat_deg",
+                                 "missing (a geographic goal needs lat_deg and lon_deg)")
+            require(-90.0 <= self.lat_deg <= 90.0, "lat_deg", self.lat_deg,
+                    "a latitude in [-90, 90]")
+            require(-180.0 <= self.lon_deg <= 180.0, "lon_deg", self.lon_deg,
+                    "a longitude in [-180, 180]")
+        elif None in local:
+            raise FieldError("east_m" if self.east_m is None else "north_m",
+                             "missing (give north_m and east_m, or lat_deg and lon_deg)")
+
+    @property
+    def is_geographic(self) -> bool:
+        return self.lat_deg is not None or self.lon_deg is not None
+
+
+@dataclass(frozen=True)
+class FlightConfig:
+    """Flight phases and the vertical hold (companion/flight_phase.py): no setpoint while the
+    vehicle is landed, taking off or landing; setpoints hold an altitude."""
+    landed_state_timeout_s: float = 3.0       # EXTENDED_SYS_STATE older than this: use altitude
+    airborne_alt_m: float = 2.0               # fallback: above this over the takeoff point...
+    takeoff_alt_m: float | None = None        # ...and at this takeoff altitude (null: climb stopped)
+    climb_stopped_mps: float = 0.3
+    climb_stopped_s: float = 1.0
+    hold_alt_m: float | None = None           # null: hold the altitude commanding began at
+    vertical_gain_per_s: float = 0.5          # vz = gain x altitude error...
+    max_vertical_speed_mps: float = 1.0       # ...within +-this
+
+    def __post_init__(self) -> None:
+        for key in ("landed_state_timeout_s", "airborne_alt_m", "climb_stopped_mps",
+                    "climb_stopped_s", "vertical_gain_per_s", "max_vertical_speed_mps"):
+            _positive(key, getattr(self, key))
+        for key in ("takeoff_alt_m", "hold_alt_m"):
+            value = getattr(self, key)
+            require(value is None or value > 0.0, key, value, "an altitude > 0 m or null")
+
+    def params(self) -> FlightPhaseParams:
+        return FlightPhaseParams(
+            landed_state_timeout_s=self.landed_state_timeout_s, airborne_alt_m=self.airborne_alt_m,
+            takeoff_alt_m=self.takeoff_alt_m, climb_stopped_mps=self.climb_stopped_mps,
+            climb_stopped_s=self.climb_stopped_s, hold_alt_m=self.hold_alt_m,
+            vertical_gain_per_s=self.vertical_gain_per_s,
+            max_vertical_speed_mps=self.max_vertical_speed_mps)
 
 
 @dataclass(frozen=True)
@@ -432,6 +507,7 @@ class CompanionConfig:
     failsafe: FailsafeConfig = field(default_factory=FailsafeConfig)
     safety: SafetyConfig = field(default_factory=SafetyConfig)
     goal: GoalConfig | None = None            # or --goal NORTH,EAST on the command line
+    flight: FlightConfig = field(default_factory=FlightConfig)
 
     def guidance_params(self, goal_radius_m: float) -> GuidanceParams:
         return self.avoidance.guidance_params(self.commanding.cruise_speed_mps, goal_radius_m)

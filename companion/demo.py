@@ -39,6 +39,11 @@ COMMAND_TIMEOUT_S = 15.0
 STOP_TIMEOUT_S = 5.0
 SETTLE_TIMEOUT_S = 3.0
 POLL_S = 0.1
+TAKEOFF_ALT_M = 10.0             # NAV_TAKEOFF altitude above home (docs/real-vehicle.md workflow)
+TAKEOFF_ATTEMPTS = 3
+CLIMB_EVIDENCE_M = 1.0           # LOCAL_POSITION_NED this far up: the takeoff is under way
+TAKEOFF_CLIMB_SIM_S = 10.0       # spool-up (2.5 s) and the first metre, with margin: simulated s
+TAKEOFF_RETRY_SIM_S = 2.0        # NAV_TAKEOFF resent this often (simulated s) until accepted
 
 
 class DemoError(CompanionError):
@@ -78,7 +83,8 @@ def demo_config(scenario: Scenario, base_path: str = "config/companion.yaml",
         max_turn_rate_deg_s=scenario.vehicle.max_turn_rate_deg_s)
     return dataclasses.replace(base, estimator=scenario.estimator_config(),
                                avoidance=scenario.avoidance, commanding=commanding,
-                               goal=GoalConfig(goal.north_m, goal.east_m, goal.radius_m))
+                               goal=GoalConfig(goal.north_m, goal.east_m, goal.radius_m),
+                               flight=dataclasses.replace(base.flight, takeoff_alt_m=TAKEOFF_ALT_M))
 
 
 class Child:
@@ -159,16 +165,18 @@ async def wait_for(condition, what: str, timeout_s: float, children: list[Child]
         raise DemoError(f"timed out after {timeout_s:.0f} s waiting for {what}") from None
 
 
-async def command_until_accepted(link, msg_factory, name: str, children: list[Child]) -> None:
-    """Send a command every COMMAND_RETRY_S until its COMMAND_ACK says accepted."""
+async def command_until_accepted(link, msg_factory, name: str, children: list[Child],
+                                 timeout_s: float = COMMAND_TIMEOUT_S,
+                                 retry_s: float = COMMAND_RETRY_S) -> None:
+    """Send a command every ``retry_s`` until its COMMAND_ACK says accepted."""
     try:
-        async with asyncio.timeout(COMMAND_TIMEOUT_S):
+        async with asyncio.timeout(timeout_s):
             while True:
                 for child in children:
                     child.check_alive()
                 link.send(msg_factory())
                 try:
-                    async with asyncio.timeout(COMMAND_RETRY_S):
+                    async with asyncio.timeout(retry_s):
                         while True:
                             event = codec.decode((await link.inbox.get()).msg)
                             if isinstance(event, codec.CommandAck) and codec.is_ack_for(event, name):
@@ -179,13 +187,13 @@ async def command_until_accepted(link, msg_factory, name: str, children: list[Ch
                 except TimeoutError:
                     pass
     except TimeoutError:
-        raise DemoError(f"the vehicle did not accept {name} within {COMMAND_TIMEOUT_S:.0f} s") \
-            from None
+        raise DemoError(f"the vehicle did not accept {name} within {timeout_s:.0f} s") from None
 
 
 async def ground_station(tcp_port: int, files: DemoFiles, scenario: Scenario, speedup: float,
                          children: list[Child], config: CompanionConfig) -> dict:
-    """Set GUIDED, arm, and wait for the companion to report arrival; returns its report."""
+    """Set GUIDED, arm, take off, and wait for the companion to report arrival; returns its
+    report."""
     key = read_signing_key(config.link)
     async with open_link(f"tcp:127.0.0.1:{tcp_port}",
                          codec.Encoder(GCS_SYSTEM_ID, codec.MAV_COMP_ID_MISSIONPLANNER, key),
@@ -197,15 +205,64 @@ async def ground_station(tcp_port: int, files: DemoFiles, scenario: Scenario, sp
             await command_until_accepted(
                 link, lambda: codec.set_mode(1, 1, config.link.guided_custom_mode), "set_mode",
                 children)
-            await command_until_accepted(link, lambda: codec.arm(1, 1), "arm", children)
-            log.info("GUIDED and armed: flying")
-            flight_s = scenario.mission.max_time_s / speedup + 30.0
+            # resend well within DISARM_DELAY (10 s simulated): a lost takeoff must not let the
+            # vehicle disarm on the ground before the next one
+            await take_off(link, TAKEOFF_ALT_M, children,
+                           max(COMMAND_TIMEOUT_S / 3, TAKEOFF_CLIMB_SIM_S / speedup),
+                           min(COMMAND_RETRY_S, TAKEOFF_RETRY_SIM_S / speedup))
+            flight_s = (scenario.mission.max_time_s + 30.0) / speedup + 30.0
             report = await wait_for(
                 lambda: (r := read_report(files.report)) and r.get("arrived") and r,
                 "the vehicle to arrive", flight_s, children)
             await wait_until_settled(files.truth)
             receiver.cancel()
     return report
+
+
+async def take_off(link, alt_m: float, children: list[Child], climb_timeout_s: float,
+                   retry_s: float = COMMAND_RETRY_S) -> None:
+    """Arm, then NAV_TAKEOFF to ``alt_m`` until it is accepted or the vehicle is seen climbing:
+    the companion, up since boot, commands once the climb is over. The climb counts as much as
+    the ACK: an ACK lost on a lossy link makes the resent takeoff look refused (ArduCopter refuses
+    a second one in the air). ArduCopter disarms a vehicle left idle on the ground for
+    DISARM_DELAY, and at a high speedup those 10 s pass quickly: nothing in time, arm again."""
+    for attempt in range(1, TAKEOFF_ATTEMPTS + 1):
+        await command_until_accepted(link, lambda: codec.arm(1, 1), "arm", children,
+                                     retry_s=retry_s)
+        if await wait_for_takeoff(link, lambda: codec.takeoff(1, 1, alt_m), climb_timeout_s,
+                                  children, retry_s):
+            log.info("GUIDED, armed, taking off to %.0f m", alt_m)
+            return
+        log.warning("NAV_TAKEOFF neither accepted nor climbing (attempt %d): arming again",
+                    attempt)
+    raise DemoError(f"the vehicle did not take off to {alt_m:.0f} m in {TAKEOFF_ATTEMPTS} tries")
+
+
+async def wait_for_takeoff(link, takeoff_factory, timeout_s: float, children: list[Child],
+                           retry_s: float) -> bool:
+    """Send NAV_TAKEOFF every ``retry_s``; True once it is accepted or LOCAL_POSITION_NED (if the
+    link carries it) shows the vehicle CLIMB_EVIDENCE_M up; False after ``timeout_s``."""
+    try:
+        async with asyncio.timeout(timeout_s):
+            while True:
+                for child in children:
+                    child.check_alive()
+                link.send(takeoff_factory())
+                try:
+                    async with asyncio.timeout(retry_s):
+                        while True:
+                            event = codec.decode((await link.inbox.get()).msg)
+                            if isinstance(event, codec.CommandAck) and \
+                                    codec.is_ack_for(event, "takeoff") and event.accepted:
+                                return True
+                            elif isinstance(event, codec.LocalPosition) and \
+                                    event.component_id == codec.MAV_COMP_ID_AUTOPILOT1 and \
+                                    event.down_m < -CLIMB_EVIDENCE_M:
+                                return True
+                except TimeoutError:
+                    pass
+    except TimeoutError:
+        return False
 
 
 async def wait_until_settled(truth_path: Path) -> None:

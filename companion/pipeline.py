@@ -19,7 +19,9 @@ Rules (docs/messages.md repeats them):
   most ``max_attitude_age_s``, else the sample is skipped).
 - A decision (guidance, urgency, maybe a setpoint) follows each odometry sample once a setpoint
   period of message time has passed, and each obstacle report the filter absorbed.
-- Setpoints only while the last vehicle heartbeat says armed and GUIDED and is fresh.
+- Setpoints only while the last vehicle heartbeat says armed and GUIDED and is fresh, and the
+  flight phase (companion/flight_phase.py) is airborne; they hold an altitude (vz term).
+- A goal given as latitude/longitude waits for the EKF origin (or HOME) to become metres.
 - Stale camera or an unhealthy filter: the configured safe action (hold: velocity 0, current yaw).
 """
 from __future__ import annotations
@@ -41,6 +43,8 @@ from companion.core.navigator import Navigator
 from companion.safety.clock import ClockLimits, EpochCamera, VehicleClock
 from companion.safety.gate import SetpointGate, SetpointLimits
 from companion.safety.liveness import Liveness
+from companion.flight_phase import FlightPhase, VerticalHold
+from companion.goal import goal_north_east
 
 log = logging.getLogger(__name__)
 
@@ -132,6 +136,12 @@ class Pipeline:
         self.counters: dict[str, int] = {}
         self.setpoints = 0
         self.stopped = False            # stop_setpoint() sent: no setpoint after it
+        self.phase = FlightPhase(config.flight.params())
+        self.vertical = VerticalHold(config.flight.params())
+        self._phase_said: str | None = None
+        self.goal_ne: tuple[float, float] | None = (
+            (goal.north_m, goal.east_m) if goal is not None and not goal.is_geographic else None)
+        self._goal_reference: str | None = None
 
     # ------------------------------------------------------------ entry point
     def handle(self, t_link_s: float, event: codec.Event | None) -> list[Output]:
@@ -156,7 +166,39 @@ class Pipeline:
                 self._pair_position(t_link_s, event, out)
         elif isinstance(event, codec.ObstacleFrame):
             self._on_obstacles(t_link_s, event, out)
+        elif self._is_vehicle(event):
+            self._on_flight_data(event)
         return out
+
+    def _on_flight_data(self, event) -> None:
+        """Flight phase inputs and the goal's geographic reference."""
+        if isinstance(event, codec.LandedState) and self.clock.latest_t_s is not None:
+            self.phase.on_landed_state(self.clock.latest_t_s, event.landed_state)
+        elif isinstance(event, codec.GlobalPosition) and math.isfinite(event.t_s):
+            self.phase.on_relative_alt(event.t_s, event.relative_alt_m, event.vel_down_mps)
+        elif isinstance(event, codec.GeoReference):
+            self._on_geo_reference(event)
+
+    @property
+    def needs_geo_reference(self) -> bool:
+        """A latitude/longitude goal still waits for the EKF origin or HOME."""
+        return self.goal is not None and self.goal.is_geographic and self._goal_reference != "origin"
+
+    def _on_geo_reference(self, ref: codec.GeoReference) -> None:
+        if not self.needs_geo_reference or (ref.kind == "home" and self._goal_reference):
+            return                        # the EKF origin wins over HOME; one HOME is enough
+        try:
+            self.goal_ne = goal_north_east(self.goal.lat_deg, self.goal.lon_deg, ref.lat_deg,
+                                           ref.lon_deg, ref.north_m, ref.east_m)
+        except ValueError as exc:
+            self._count("goal_too_far")
+            log.error("%s", exc)
+            return
+        self._goal_reference = ref.kind
+        log.info("goal %.7f, %.7f -> north %.1f m, east %.1f m (from the %s)", self.goal.lat_deg,
+                 self.goal.lon_deg, *self.goal_ne, "EKF origin" if ref.kind == "origin" else "HOME")
+        if self.navigator is not None:
+            self.navigator.goal = np.array(self.goal_ne)
 
     @property
     def heartbeat_link_s(self) -> float | None:
@@ -211,6 +253,7 @@ class Pipeline:
             self.liveness.on_vehicle_heartbeat(t_link_s)
             self.clock.on_vehicle_heartbeat()
             self.armed, self.custom_mode = hb.armed, hb.custom_mode
+            self.phase.on_armed(hb.armed)
             self._note_allowed(t_link_s)
         elif self.vehicle is not None and hb.system_id == self.vehicle[0] \
                 and hb.component_id == link.camera_component_id:
@@ -306,6 +349,7 @@ class Pipeline:
             self._held_position = lpn
 
     def _on_position(self, t_link_s: float, lpn: codec.LocalPosition, out: list[Output]) -> None:
+        self.phase.on_local_position(lpn.t_s, lpn.down_m, lpn.vel_down_mps)
         yaw = self._attitude_at(lpn.t_s)
         if yaw is None:
             self._count("odometry_without_attitude")
@@ -343,17 +387,18 @@ class Pipeline:
         self._maybe_publish_pose(lpn.t_s, out)
         due = (self._last_decision_t_s is None or lpn.t_s - self._last_decision_t_s
                >= self.config.commanding.setpoint_period_s - TIME_EPS_S)
-        if (reports or due) and self.goal is not None:
+        if (reports or due) and self.goal_ne is not None:
             self._decide(t_link_s, lpn.t_s, out)
 
     def _make_navigator(self, north_m: float, east_m: float, yaw_rad: float) -> Navigator:
         est = self.config.estimator
-        goal = self.goal or GoalConfig(north_m, east_m)
+        goal_ne = self.goal_ne or (north_m, east_m)    # no goal yet: replaced once known
+        radius_m = self.goal.radius_m if self.goal is not None else 1.0   # no goal: no guidance
         pose_cov = np.diag([est.initial_position_sigma_m ** 2, est.initial_position_sigma_m ** 2,
                             math.radians(est.initial_yaw_sigma_deg) ** 2])
         return Navigator(np.array([north_m, east_m, wrap_angle(yaw_rad)]), pose_cov,
-                         est.slam_noise(), est.gates(), self.config.guidance_params(goal.radius_m),
-                         np.array([goal.north_m, goal.east_m]),
+                         est.slam_noise(), est.gates(), self.config.guidance_params(radius_m),
+                         np.array(goal_ne),
                          self.config.avoidance.strategy, self.config.avoidance.union_params())
 
     def _maybe_publish_pose(self, t_s: float, out: list[Output]) -> None:
@@ -409,7 +454,7 @@ class Pipeline:
             if report.action == "added":
                 log.info("new landmark %s (obstacle id %s)", report.landmark_index,
                          report.obstacle_id)
-        if reports and self.goal is not None:
+        if reports and self.goal_ne is not None:
             self._decide(t_link_s, self.navigator.t_s, out)
 
     def _in_vehicle_time(self, frame: codec.ObstacleFrame,
@@ -482,7 +527,7 @@ class Pipeline:
     def _safe(self, t_link_s: float, t_s: float, reason: str, out: list[Output]) -> None:
         # ERROR (and a STATUSTEXT) once per reason while commanding; before that (on the ground,
         # camera not up yet) it is only worth an INFO line.
-        commanding = self.commanding_allowed(t_link_s)
+        commanding = self.commanding_allowed(t_link_s) and self.phase.decide(t_s).may_command
         if (reason, commanding) != (self._safe_reason, self._safe_logged_commanding):
             action = self.config.failsafe.safe_action
             if commanding:
@@ -498,12 +543,25 @@ class Pipeline:
                                                         f"hold: {reason}"), out)
 
     def _send(self, t_link_s: float, setpoint: codec.VelocitySetpoint, out: list[Output]) -> None:
-        """The one place a setpoint leaves: commanding allowed, and passed by the gate."""
+        """The one place a setpoint leaves: commanding allowed, airborne (flight phase), the
+        vertical hold added, and passed by the gate."""
         if not self.commanding_allowed(t_link_s):
+            self.vertical.reset()
             return
         if self.stopped:
             self._count("setpoint_after_stop")
             return
+        decision = self.phase.decide(setpoint.t_s)
+        if decision.phase != self._phase_said:
+            self._phase_said = decision.phase
+            log.info("flight phase %s (%s): %s", decision.phase, decision.source,
+                     "commanding" if decision.may_command else "no setpoints")
+        if not decision.may_command:
+            self.vertical.reset()
+            self._count(f"no_setpoint_{decision.phase.replace(' ', '_')}")
+            return
+        setpoint = dataclasses.replace(setpoint,
+                                       vel_down_mps=self.vertical.vel_down_mps(self.phase.up_m))
         verdict = self.gate.check(setpoint)
         if not verdict.passed:
             self._count(f"setpoint_refused: {verdict.reason}")
@@ -549,6 +607,7 @@ def snapshot(pipeline: Pipeline) -> dict:
         "vehicle": list(pipeline.vehicle) if pipeline.vehicle else None,
         "other_vehicles": sorted(pipeline.other_vehicles),
         "goal": asdict(pipeline.goal) if pipeline.goal is not None else None,
+        "goal_ne_m": list(pipeline.goal_ne) if pipeline.goal_ne is not None else None,
         "started_t_s": pipeline.started_t_s,
         "arrived": pipeline.arrival_t_s is not None,
         "arrival_t_s": pipeline.arrival_t_s,

@@ -180,8 +180,7 @@ def plot_replay(path: str | Path, result: ReplayResult) -> None:
     nav = p.navigator
     landmarks = nav.slam.landmarks() if nav else np.zeros((0, 2))
     covs = nav.slam.landmark_covs() if nav else np.zeros((0, 2, 2))
-    goal = result.config.goal
-    goal_ne = np.array([goal.north_m, goal.east_m]) if goal else (
+    goal_ne = np.array(p.goal_ne) if p.goal_ne is not None else (
         track[-1] if len(track) else np.zeros(2))
     plot_paths(path, true_ne=np.zeros((0, 2)), est_ne=track, obstacles_ne=np.zeros((0, 2)),
                obstacle_radii=np.zeros(0),

@@ -45,7 +45,16 @@ WATCHDOG_INTERVAL_S = 0.2
 REPORT_TRACK_ROWS = 36_000
 PLACEHOLDER_SYSTEM_ID = 1        # our system id until the vehicle's is known (if not configured)
 STREAMS = ((codec.MSG_ID_ATTITUDE, "attitude_rate_hz"),
-           (codec.MSG_ID_LOCAL_POSITION_NED, "local_position_rate_hz"))
+           (codec.MSG_ID_LOCAL_POSITION_NED, "local_position_rate_hz"),
+           (codec.MSG_ID_EXTENDED_SYS_STATE, "landed_state_rate_hz"),      # flight phases
+           (codec.MSG_ID_GLOBAL_POSITION_INT, "global_position_rate_hz"))
+GEO_REFERENCE_RETRY_S = 2.0      # a lat/lon goal: ask for GPS_GLOBAL_ORIGIN and HOME this often
+
+
+def describe_goal(goal) -> str:
+    if goal.is_geographic:
+        return f"lat {goal.lat_deg:.7f}, lon {goal.lon_deg:.7f} (waits for the EKF origin)"
+    return f"north {goal.north_m:.1f} m, east {goal.east_m:.1f} m"
 
 
 def sidecar_config_path(tlog_path: str | Path) -> Path:
@@ -206,6 +215,9 @@ class Service:
             if ack is not None:
                 log.warning("SET_MESSAGE_INTERVAL %d refused (result %d)", msg_id, ack.result)
                 break
+        if msg_id not in codec.DATA_STREAMS_FOR:
+            log.warning("message %d: not granted and in no data stream; going without it", msg_id)
+            return
         log.warning("message %d: falling back to REQUEST_DATA_STREAM", msg_id)
         self.link.send(codec.request_data_stream(sysid, compid, msg_id, rate_hz))
 
@@ -218,6 +230,16 @@ class Service:
                         return ack
         except TimeoutError:
             return None
+
+    async def ask_geo_reference(self) -> None:
+        """A latitude/longitude goal needs the EKF origin (or HOME): ask until it is known.
+        ArduCopter sets its origin once the EKF has a position (30-40 s after boot in SITL)."""
+        while True:
+            await asyncio.sleep(GEO_REFERENCE_RETRY_S)
+            if self.pipeline.vehicle is not None and self.pipeline.needs_geo_reference:
+                sysid, compid = self.pipeline.vehicle
+                for msg_id in (codec.MSG_ID_GPS_GLOBAL_ORIGIN, codec.MSG_ID_HOME_POSITION):
+                    self.link.send(codec.request_message(sysid, compid, msg_id))
 
     async def flush_tlog(self) -> None:
         while True:
@@ -264,9 +286,9 @@ async def run_service(config: CompanionConfig, url: str, tlog_path: str | Path |
             service = Service(config, link, tlog, report_path)
             for sig in (signal.SIGINT, signal.SIGTERM):
                 loop.add_signal_handler(sig, service.stop.set)
-            log.info("companion up on %s%s: goal north %.1f m, east %.1f m", url,
+            log.info("companion up on %s%s: goal %s", url,
                      f" (local {link.local_address[0]}:{link.local_address[1]})"
-                     if link.local_address else "", config.goal.north_m, config.goal.east_m)
+                     if link.local_address else "", describe_goal(config.goal))
             log.info("effective config: %s", config_to_dict(config))
             if signing_key is not None:
                 log.info("MAVLink 2 signing on (key from %s): unsigned traffic refused",
@@ -278,6 +300,8 @@ async def run_service(config: CompanionConfig, url: str, tlog_path: str | Path |
                     tg.create_task(service.send_heartbeats(), name="heartbeat")
                     tg.create_task(service.watch(), name="watchdog")
                     tg.create_task(service.request_streams(), name="streams")
+                    if config.goal.is_geographic:
+                        tg.create_task(service.ask_geo_reference(), name="geo-reference")
                     if tlog is not None:
                         tg.create_task(service.flush_tlog(), name="tlog")
                     tg.create_task(service.raise_on_stop(), name="stop")

@@ -2,6 +2,8 @@
 
     sitl-stub --scenario PATH [--tcp HOST:PORT|none] [--udp HOST:PORT] [--speedup N] [--seed S]
               [--truth-log PATH] [--drop-rate P] [--sysid N] [--signing-key FILE] [--streams-off]
+    sitl-stub --camera-only --connect URL --scenario PATH [--seed S] [--sysid N]
+              [--ekf-origin N,E] [--sectors]     # the camera alone, beside any autopilot
 
 Prints exactly one line to stdout once listening: `SITL_STUB READY tcp=HOST:PORT udp=HOST:PORT`
 (`-` for a disabled endpoint). Logs go to stderr. Exit 0 on SIGTERM/SIGINT, 2 on a bad scenario,
@@ -66,6 +68,8 @@ class TruthLog:
             "t_s": round(t_s, 6), "north_m": truth.north_m, "east_m": truth.east_m,
             "yaw_rad": truth.yaw_rad, "speed_mps": truth.speed_mps, "armed": ap.armed,
             "mode": MODE_NAMES.get(ap.mode, str(ap.mode)),
+            "vel_north_mps": truth.vel_north_mps, "vel_east_mps": truth.vel_east_mps,
+            "up_m": truth.up_m, "vel_up_mps": truth.vel_up_mps, "landed": ap.flight.land_complete,
             "obstacles": [{"id": i, "north_m": n, "east_m": e, "radius_m": r}
                           for i, n, e, r in obstacles_at(sim.scenario.world.obstacles, t_s)],
             "odom_north_m": odom.north_m, "odom_east_m": odom.east_m, "odom_yaw_rad": odom.yaw_rad,
@@ -95,6 +99,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--streams-off", action="store_true",
                    help="all SRn_* stream rates 0: no telemetry until a client asks")
     p.add_argument("--log-level", default="INFO", help="stderr log level (default INFO)")
+    cam = p.add_argument_group("camera only: the stub's camera beside any autopilot")
+    cam.add_argument("--camera-only", action="store_true",
+                     help="no vehicle: be the camera (component 100) of the autopilot at --connect")
+    cam.add_argument("--connect", metavar="URL",
+                     help="the autopilot's link: udpin:HOST:PORT, udpout:, tcp:, tcpin:, /dev/ttyX")
+    cam.add_argument("--ekf-origin", metavar="N,E",
+                     help="where the autopilot's LOCAL_NED origin lies in the scenario frame (m); "
+                          "default: from its GPS_GLOBAL_ORIGIN and world.origin")
+    cam.add_argument("--sectors", action="store_true",
+                     help="also the 72-sector OBSTACLE_DISTANCE (default: sensor.sector_message)")
     return p
 
 
@@ -156,7 +170,7 @@ async def simulate(opts: Options, sim: Simulation, ap: Autopilot, cam: CameraCom
         while inbox:
             name, msg = inbox.popleft()
             hub.broadcast(handle_safely(ap, name, msg, t_s))
-        sim.step(ap.demand(t_s), ap.armed)
+        sim.step(ap.demand(t_s), ap.armed, ap.climb_limits())
         t_s = sim.t_s
         hub.broadcast(ap.after_step(t_s) + ap.periodic(t_s) + cam.periodic(t_s))
         if truth_log is not None:
@@ -197,6 +211,7 @@ async def run_stub(opts: Options) -> None:
 
     hub = LinkHub(opts.tcp, opts.udp, opts.sysid, on_message, drop_rate=opts.drop_rate,
                   seed=opts.seed, signing_key=opts.signing_key)
+    ap.on_signing_request = hub.set_signing_key
     stop = asyncio.Event()
     loop = asyncio.get_running_loop()
     for sig in (signal.SIGTERM, signal.SIGINT):
@@ -224,7 +239,36 @@ async def run_stub(opts: Options) -> None:
             truth_log.close()
 
 
+def parse_camera_options(args: argparse.Namespace):
+    from .camera_only import CameraOptions, parse_placement
+    if not args.connect:
+        raise ValueError("--camera-only needs --connect URL (the autopilot's link)")
+    if args.sysid is not None and not 1 <= args.sysid <= 255:
+        raise ValueError(f"--sysid must be in 1..255, got {args.sysid}")
+    return CameraOptions(scenario=load_scenario(args.scenario), connect=args.connect,
+                         seed=args.seed, sysid=args.sysid,
+                         placement=parse_placement(args.ekf_origin),
+                         sectors=True if args.sectors else None)
+
+
 def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    if args.camera_only:
+        logging.basicConfig(stream=sys.stderr, level=args.log_level.upper(),
+                            format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+        try:
+            cam_opts = parse_camera_options(args)
+        except (ValueError, ScenarioError) as exc:
+            print(f"sitl-stub: error: {exc}", file=sys.stderr, flush=True)
+            return EXIT_USAGE
+        from .camera_only import CameraLinkError, run_camera
+        try:
+            run_camera(cam_opts, lambda url: print(f"SITL_STUB CAMERA READY connect={url}",
+                                                   flush=True))
+        except CameraLinkError as exc:
+            print(f"sitl-stub: error: {exc}", file=sys.stderr, flush=True)
+            return EXIT_USAGE
+        return 0
     try:
         opts = parse_options(argv)
     except (ValueError, ScenarioError) as exc:

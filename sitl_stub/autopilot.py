@@ -6,15 +6,16 @@ in; it touches no sockets or clocks, so it is unit-testable. Every returned item
 """
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from . import guided, streams, telemetry as tm
+from . import flight, guided, streams, telemetry as tm
 from .params import ParamTable
-from .sim import Simulation
-from .vehicle import HOLD, Demand
+from .sim import ClimbLimits, Simulation
+from .vehicle import GROUNDED, Demand
 
 log = logging.getLogger(__name__)
 
@@ -24,8 +25,15 @@ SUPPORTED_MODES = tuple(tm.MODE_NAMES)
 # Modes from which ArduCopter allows arming (Mode::allows_arming): not AUTO, RTL, LAND.
 ARMABLE_MODES = (tm.MODE_STABILIZE, tm.MODE_ALT_HOLD, tm.MODE_GUIDED, tm.MODE_LOITER,
                  tm.MODE_POSHOLD, tm.MODE_BRAKE)
+# Modes with a user takeoff (Mode::has_user_takeoff): NAV_TAKEOFF climbs in them.
+USER_TAKEOFF_MODES = (tm.MODE_GUIDED, tm.MODE_LOITER, tm.MODE_ALT_HOLD, tm.MODE_POSHOLD)
+# Modes whose position controllers run (SYS_STATUS Z/XY control enabled when flying).
+POSITION_CONTROL_MODES = (tm.MODE_GUIDED, tm.MODE_LOITER, tm.MODE_POSHOLD, tm.MODE_BRAKE,
+                          tm.MODE_RTL, tm.MODE_AUTO, tm.MODE_LAND)
 FORCE_DISARM_MAGIC = 21196.0
-REST_SPEED_MPS = 0.05
+BATTERY_CAPACITY_MAH = 5200.0
+BATTERY_FULL_MV, BATTERY_EMPTY_MV = 12600.0, 10500.0
+CURRENT_IDLE_A, CURRENT_ARMED_A, CURRENT_FLYING_A = 0.5, 2.0, 28.0   # 28 A: the SITL binary hovering
 
 ACCEPTED = mavlink.MAV_RESULT_ACCEPTED
 DENIED = mavlink.MAV_RESULT_DENIED
@@ -50,23 +58,75 @@ class Autopilot:
         self.target: guided.GuidedTarget | None = None
         self.cruise_override_mps: float | None = None
         self.start_unix_s = start_unix_s
-        self.home = (sim.truth.north_m, sim.truth.east_m)
+        self.home = (sim.truth.north_m, sim.truth.east_m, sim.truth.up_m)
         self.ignored_targets = 0
+        self.flight = flight.FlightState()
+        self.hold_up_m = 0.0            # altitude held outside GUIDED (and by LOITER & co.)
+        self.consumed_mah = 0.0
+        self.on_signing_request = None  # set by the links: SETUP_SIGNING(key bytes, timestamp)
 
     # ----------------------------------------------------------------- physics interface
     def demand(self, t_s: float) -> Demand:
         """What the airframe is asked to do during the next step."""
-        if not self.armed or self.mode != tm.MODE_GUIDED:
-            return HOLD   # every other mode of the 2D vehicle decelerates to a stop and holds
+        if not self.armed or self.flight.motors_idle:
+            return GROUNDED     # disarmed, or landed: ground handling, motors idle
+        if self.mode == tm.MODE_LAND:
+            return Demand(climb_mps=-self._land_speed_mps())
+        takeoff = self.flight.takeoff
+        if takeoff is not None:
+            if not takeoff.climbing(t_s):
+                return GROUNDED     # spooling up: still standing on the ground, nothing moves
+            return Demand(target_up_m=takeoff.target_up_m)
+        if self.mode != tm.MODE_GUIDED:
+            return Demand(target_up_m=self.hold_up_m)   # decelerate and hold
         cruise = self.cruise_override_mps or self.params.get("WPNAV_SPEED") / 100.0
         return guided.demand_for(self.target, self.sim.odometry, t_s, self._guid_timeout_s(),
                                  cruise, self.sim.limits.max_accel_mps2)
 
+    def climb_limits(self) -> ClimbLimits:
+        """WPNAV_SPEED_UP / WPNAV_SPEED_DN, or the landing speed in LAND."""
+        down = self._land_speed_mps() if self.mode == tm.MODE_LAND else \
+            self.params.get("WPNAV_SPEED_DN") / 100.0
+        return ClimbLimits(max_up_mps=self.params.get("WPNAV_SPEED_UP") / 100.0,
+                           max_down_mps=down)
+
+    def _land_speed_mps(self) -> float:
+        """mode_land.cpp: LAND_SPEED below LAND_ALT_LOW, above it LAND_SPEED_HIGH (0: WPNAV_SPEED_DN)."""
+        if self.sim.truth.up_m > self.params.get("LAND_ALT_LOW") / 100.0:
+            high = self.params.get("LAND_SPEED_HIGH") or self.params.get("WPNAV_SPEED_DN")
+            return high / 100.0
+        return self.params.get("LAND_SPEED") / 100.0
+
     def after_step(self, t_s: float) -> list[Outgoing]:
-        """State changes that follow the physics (LAND disarms once the vehicle is at rest)."""
-        if self.armed and self.mode == tm.MODE_LAND and self.sim.truth.speed_mps == 0.0:
+        """State changes that follow the physics: takeoff complete, land detector, auto-disarm,
+        LAND disarming once landed; the battery drains."""
+        truth = self.sim.truth
+        limits = self.climb_limits()
+        was_landed = self.flight.land_complete
+        reason = self.flight.update(t_s, truth.up_m, truth.vel_up_mps, self.armed,
+                                    limits.max_up_mps, self.sim.limits.accel_up_mps2,
+                                    self.params.get("DISARM_DELAY"))
+        if self.flight.land_complete != was_landed:
+            log.info("%s at %.1f m", "landed" if self.flight.land_complete else "airborne",
+                     truth.up_m)
+        if self.armed and self.mode == tm.MODE_LAND and self.flight.land_complete:
             self._set_armed(False, "landed")
+        elif reason is not None:
+            self._set_armed(False, reason)
+        current_a = self._current_a()
+        self.consumed_mah += current_a * 1000.0 * self.sim.dt_s / 3600.0
         return []
+
+    def _current_a(self) -> float:
+        if not self.armed:
+            return CURRENT_IDLE_A
+        return CURRENT_ARMED_A if self.flight.motors_idle else CURRENT_FLYING_A
+
+    def _battery(self) -> tuple[int, int, int]:
+        """(voltage mV, current cA, remaining %): a linear pack."""
+        used = min(self.consumed_mah / BATTERY_CAPACITY_MAH, 1.0)
+        voltage = BATTERY_FULL_MV - (BATTERY_FULL_MV - BATTERY_EMPTY_MV) * used
+        return int(voltage), int(round(self._current_a() * 100)), int(round(100 * (1 - used)))
 
     def periodic(self, t_s: float) -> list[Outgoing]:
         """Heartbeat and the telemetry streams due at t_s."""
@@ -81,18 +141,38 @@ class Autopilot:
 
     def _stream_message(self, msg_id: int, t_s: float, origin):
         sim = self.sim
+        has_gps = sim.scenario.noise.has_gps
         if msg_id == streams.MSG_HEARTBEAT:
-            return tm.heartbeat_autopilot(self.mode, self.armed)
+            return tm.heartbeat_autopilot(self.mode, self.armed, self.flight.land_complete)
         if msg_id == streams.MSG_SYS_STATUS:
-            return tm.sys_status()
+            voltage, current, remaining = self._battery()
+            active = self.armed and not self.flight.motors_idle \
+                and self.mode in POSITION_CONTROL_MODES
+            return tm.sys_status(has_gps, active, voltage, current, remaining)
+        if msg_id == streams.MSG_BATTERY_STATUS:
+            voltage, current, remaining = self._battery()
+            return tm.battery_status(voltage, current, int(self.consumed_mah), remaining)
+        if msg_id == streams.MSG_EXTENDED_SYS_STATE:
+            return tm.extended_sys_state(self.flight.landed_state(self.mode == tm.MODE_LAND),
+                                         flight.MAV_VTOL_STATE_MC)
+        if msg_id == streams.MSG_GPS_RAW_INT:
+            lat, lon = origin.to_lat_lon_deg(*sim.reported_position_ne_m())
+            return tm.gps_raw_int(t_s, has_gps, lat, lon, origin.alt_m + sim.truth.up_m,
+                                  sim.position_error.total_sigma_m, sim.truth.speed_mps,
+                                  math.atan2(sim.truth.vel_east_mps, sim.truth.vel_north_mps))
+        if msg_id == streams.MSG_EKF_STATUS_REPORT:
+            return tm.ekf_status_report(has_gps)
+        if msg_id == streams.MSG_GPS_GLOBAL_ORIGIN:
+            return tm.gps_global_origin(origin, t_s)
         if msg_id == streams.MSG_SYSTEM_TIME:
             return tm.system_time(t_s, self.start_unix_s)
         if msg_id == streams.MSG_ATTITUDE:
-            return tm.attitude(t_s, sim.odometry)
+            return tm.attitude(t_s, sim.odometry, sim.reported_yaw_rad())
         if msg_id == streams.MSG_LOCAL_POSITION_NED:
-            return tm.local_position_ned(t_s, sim.odometry)
+            return tm.local_position_ned(t_s, sim.odometry, *sim.reported_position_ne_m())
         if msg_id == streams.MSG_GLOBAL_POSITION_INT:
-            return tm.global_position_int(t_s, sim.odometry, origin)
+            return tm.global_position_int(t_s, sim.odometry, *sim.reported_position_ne_m(),
+                                          origin, self.home[2])
         if msg_id == streams.MSG_SIMSTATE:
             return tm.simstate(sim.truth, origin)
         if msg_id == streams.MSG_HOME_POSITION:
@@ -186,7 +266,19 @@ class Autopilot:
         target = guided.parse_target(msg, self.sim.odometry, t_s)
         if target.kind == guided.KIND_HOLD:
             log.warning("GUIDED target refused, holding: %s", target.reason)
+        if self.flight.takeoff is not None:
+            # A new target replaces the TakeOff submode; on the ground the motors stay idle.
+            log.info("takeoff replaced by a %s target%s", target.kind,
+                     " while landed: motors idle" if self.flight.land_complete else "")
+            self.flight.cancel_takeoff()
         self.target = target
+        return []
+
+    def _on_setup_signing(self, msg, t_s: float) -> list[Outgoing]:
+        """GCS_MAVLINK::handle_setup_signing: store the key and use it at once on every link;
+        an all-zero key turns signing off."""
+        if self.on_signing_request is not None:
+            self.on_signing_request(bytes(msg.secret_key), int(msg.initial_timestamp))
         return []
 
     def _on_command_long(self, msg, t_s: float) -> list[Outgoing]:
@@ -209,8 +301,7 @@ class Autopilot:
         elif command == mavlink.MAV_CMD_DO_SET_MODE:
             result = self._set_mode_common(_as_int(p[0]), _as_int(p[1]), t_s)
         elif command == mavlink.MAV_CMD_NAV_TAKEOFF:
-            # 2D model: no altitude; accepted where ArduCopter would start a takeoff.
-            result = ACCEPTED if (self.armed and self.mode == tm.MODE_GUIDED) else FAILED
+            result = self._takeoff(p[6], t_s)
         elif command == mavlink.MAV_CMD_NAV_LAND:
             result = self._set_mode_common(mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, tm.MODE_LAND, t_s)
         elif command == mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH:
@@ -260,6 +351,20 @@ class Autopilot:
             return self._stream_message(msg_id, t_s, self.sim.scenario.world.origin)
         return None
 
+    def _takeoff(self, alt_m: float, t_s: float) -> int:
+        """GCS_MAVLINK_Copter::handle_MAV_CMD_NAV_TAKEOFF -> Mode::do_user_takeoff: param7 is the
+        altitude above home (m)."""
+        if not math.isfinite(alt_m):
+            return DENIED
+        target_up_m = self.home[2] + alt_m
+        refused = self.flight.start_takeoff(target_up_m, self.sim.truth.up_m, self.armed,
+                                            self.mode in USER_TAKEOFF_MODES, t_s)
+        if refused is not None:
+            log.warning("takeoff refused: %s", refused)
+            return FAILED
+        log.info("takeoff to %.1f m", alt_m)
+        return ACCEPTED
+
     def _arm_disarm(self, param1: float, param2: float) -> int:
         if param1 == 1.0:
             if self.armed:
@@ -270,10 +375,10 @@ class Autopilot:
             self._set_armed(True, "command")
             return ACCEPTED
         if param1 == 0.0:
-            moving = self.sim.truth.speed_mps > REST_SPEED_MPS
-            if moving and param2 != FORCE_DISARM_MAGIC:
+            flying = not self.flight.land_complete
+            if flying and param2 != FORCE_DISARM_MAGIC:
                 return FAILED       # ArduCopter refuses to disarm in flight unless forced
-            self._set_armed(False, "forced" if moving else "command")
+            self._set_armed(False, "forced" if flying else "command")
             return ACCEPTED
         return UNSUPPORTED
 
@@ -282,7 +387,13 @@ class Autopilot:
             log.info("%s (%s)", "armed" if armed else "disarmed", reason)
         self.armed = armed
         if armed:
-            self.home = (self.sim.odometry.north_m, self.sim.odometry.east_m)
+            self.home = (*self.sim.reported_position_ne_m(), self.sim.truth.up_m)
+        else:
+            if self.sim.truth.up_m > flight.GROUND_ALT_M:
+                log.warning("disarmed at %.1f m: the vehicle falls", self.sim.truth.up_m)
+                self.sim.truth = dataclasses.replace(self.sim.truth, up_m=0.0, vel_up_mps=0.0,
+                                                     vel_north_mps=0.0, vel_east_mps=0.0)
+            self.flight.on_disarmed(self.sim.truth.up_m)
 
     def _set_mode_common(self, base_mode: int, custom_mode: int, t_s: float) -> int:
         """GCS_MAVLINK::_set_mode_common: only custom modes; unknown custom mode -> FAILED."""
@@ -293,9 +404,13 @@ class Autopilot:
             return FAILED
         if custom_mode != self.mode:
             log.info("mode %s -> %s", tm.MODE_NAMES[self.mode], tm.MODE_NAMES[custom_mode])
+        if custom_mode != self.mode:
+            # A mode change ends a takeoff in progress; the new mode holds the altitude.
+            self.flight.cancel_takeoff()
+            self.hold_up_m = self.sim.truth.up_m
         if custom_mode == tm.MODE_GUIDED and self.mode != tm.MODE_GUIDED:
-            # ModeGuided::init: start with a zero-velocity target (hold) until told otherwise.
-            self.target = guided.hold_target(t_s, "entered GUIDED")
+            # ModeGuided::init: start with a hold (position and altitude) until told otherwise.
+            self.target = guided.hold_target(t_s, "entered GUIDED", self.sim.truth.up_m)
         elif custom_mode != tm.MODE_GUIDED:
             self.target = None
         self.mode = custom_mode

@@ -14,7 +14,12 @@ acceleration-only target (the 2D model has no acceleration control).
 
 GUID_TIMEOUT (ModeGuided velaccel/posvelaccel control): if no new target arrives for
 max(GUID_TIMEOUT, 0.1) s, velocity (and yaw rate) targets are zeroed; a position target stays.
-After a velocity target times out the vehicle decelerates and keeps its current heading.
+After a velocity target times out the vehicle stops (vz too) and keeps its current heading.
+
+Vertical: a velocity target's vz is a climb rate (vz = 0 holds the altitude), within
+WPNAV_SPEED_UP / WPNAV_SPEED_DN; a position target's z is an altitude (LOCAL_NED: -z above the
+origin, the ground), offset by the current one in offset/body frames; a hold keeps the altitude
+it was created at.
 """
 from __future__ import annotations
 
@@ -60,10 +65,12 @@ class GuidedTarget:
     yaw_rad: float | None = None
     yaw_rate_rad_s: float | None = None
     reason: str = ""
+    up_m: float | None = None          # altitude target (position, hold); None: keep the climb 0
+    vel_up_mps: float = 0.0            # climb rate of a velocity target (-vz)
 
 
-def hold_target(t_s: float, reason: str) -> GuidedTarget:
-    return GuidedTarget(kind=KIND_HOLD, set_t_s=t_s, reason=reason)
+def hold_target(t_s: float, reason: str, up_m: float | None = None) -> GuidedTarget:
+    return GuidedTarget(kind=KIND_HOLD, set_t_s=t_s, reason=reason, up_m=up_m)
 
 
 def parse_target(msg, odom: Odometry, t_s: float) -> GuidedTarget:
@@ -71,6 +78,13 @@ def parse_target(msg, odom: Odometry, t_s: float) -> GuidedTarget:
 
     odom: the autopilot's own estimate, used for body-frame rotation and offsets.
     """
+    target = _parse(msg, odom, t_s)
+    if target.kind == KIND_HOLD:
+        return hold_target(t_s, target.reason, odom.up_m)
+    return target
+
+
+def _parse(msg, odom: Odometry, t_s: float) -> GuidedTarget:
     frame = int(msg.coordinate_frame)
     if frame not in SUPPORTED_FRAMES:
         return hold_target(t_s, f"unsupported frame {frame}")
@@ -104,13 +118,15 @@ def parse_target(msg, odom: Odometry, t_s: float) -> GuidedTarget:
     body = frame in BODY_FRAMES
     cos_y, sin_y = math.cos(odom.yaw_rad), math.sin(odom.yaw_rad)
     north = east = 0.0
+    up = None
     if pos_used:
-        north, east = float(msg.x), float(msg.y)
+        north, east, up = float(msg.x), float(msg.y), -float(msg.z)
         if body:
             north, east = north * cos_y - east * sin_y, north * sin_y + east * cos_y
         if frame != MAV_FRAME_LOCAL_NED:
             north += odom.north_m
             east += odom.east_m
+            up += odom.up_m
     vn = ve = 0.0
     if vel_used:
         vn, ve = float(msg.vx), float(msg.vy)
@@ -130,7 +146,8 @@ def parse_target(msg, odom: Odometry, t_s: float) -> GuidedTarget:
     else:
         return hold_target(t_s, "unsupported type_mask combination 0x%04x" % mask)
     return GuidedTarget(kind=kind, set_t_s=t_s, north_m=north, east_m=east, vel_north_mps=vn,
-                        vel_east_mps=ve, yaw_rad=yaw, yaw_rate_rad_s=yaw_rate)
+                        vel_east_mps=ve, yaw_rad=yaw, yaw_rate_rad_s=yaw_rate, up_m=up,
+                        vel_up_mps=-float(msg.vz) if vel_used else 0.0)
 
 
 def timeout_s(guid_timeout_param_s: float) -> float:
@@ -141,39 +158,40 @@ def timeout_s(guid_timeout_param_s: float) -> float:
 def demand_for(target: GuidedTarget | None, odom: Odometry, t_s: float, guid_timeout_s: float,
                cruise_mps: float, max_accel_mps2: float) -> Demand:
     """The demand that a target in force makes at simulated time t_s."""
-    if target is None or target.kind == KIND_HOLD:
+    if target is None:
         return HOLD
+    if target.kind == KIND_HOLD:
+        return Demand(target_up_m=target.up_m)
     age_s = t_s - target.set_t_s
     timed_out = age_s > guid_timeout_s
     if target.kind == KIND_VELOCITY:
         if timed_out:
-            # Stop and keep the current heading. (ArduCopter would keep an angle target, but
-            # in this model the vehicle never turned to a yaw that differed from its velocity.)
-            return HOLD
+            # Velocity, climb and yaw rate zeroed; a yaw angle target is kept (ModeGuided).
+            return Demand(yaw_rad=target.yaw_rad, climb_mps=0.0)
         return velocity_demand(target.vel_north_mps, target.vel_east_mps, target.yaw_rad,
-                               target.yaw_rate_rad_s)
+                               target.yaw_rate_rad_s, climb_mps=target.vel_up_mps)
     if target.kind == KIND_POSITION:
-        demand = position_demand(odom.north_m, odom.east_m, target.north_m, target.east_m,
-                                 odom.yaw_rad, cruise_mps, max_accel_mps2)
-        if demand is HOLD and target.yaw_rad is not None:
-            return Demand(speed_mps=0.0, yaw_rad=target.yaw_rad)
-        return demand
+        return position_demand(odom.north_m, odom.east_m, target.north_m, target.east_m,
+                               cruise_mps, max_accel_mps2, target.up_m, target.yaw_rad)
     # position + velocity: the position target moves with the velocity until the timeout,
     # then freezes (velocity zeroed, position kept), and the vehicle converges on it.
     run_s = min(age_s, guid_timeout_s)
     vff_n, vff_e = (0.0, 0.0) if timed_out else (target.vel_north_mps, target.vel_east_mps)
     pt_n = target.north_m + target.vel_north_mps * run_s
     pt_e = target.east_m + target.vel_east_mps * run_s
+    pt_up = None if target.up_m is None else target.up_m + target.vel_up_mps * run_s
     if timed_out:
-        return position_demand(odom.north_m, odom.east_m, pt_n, pt_e, odom.yaw_rad,
-                               cruise_mps, max_accel_mps2)
+        return position_demand(odom.north_m, odom.east_m, pt_n, pt_e, cruise_mps,
+                               max_accel_mps2, pt_up, target.yaw_rad)
     cmd_n = vff_n + POSVEL_GAIN_PER_S * (pt_n - odom.north_m)
     cmd_e = vff_e + POSVEL_GAIN_PER_S * (pt_e - odom.east_m)
     cap = max(math.hypot(vff_n, vff_e), cruise_mps)
     norm = math.hypot(cmd_n, cmd_e)
     if norm > cap:
         cmd_n, cmd_e = cmd_n * cap / norm, cmd_e * cap / norm
-    return velocity_demand(cmd_n, cmd_e, target.yaw_rad, None)
+    demand = velocity_demand(cmd_n, cmd_e, target.yaw_rad, None)
+    return Demand(vel_north_mps=demand.vel_north_mps, vel_east_mps=demand.vel_east_mps,
+                  yaw_rad=demand.yaw_rad, target_up_m=pt_up)
 
 
 def report_fields(target: GuidedTarget, t_s: float, guid_timeout_s: float) -> dict:

@@ -22,7 +22,8 @@ from .sim import STREAM_LINK_DROP, make_rng
 log = logging.getLogger(__name__)
 
 COMPONENTS = (mavlink.MAV_COMP_ID_AUTOPILOT1, mavlink.MAV_COMP_ID_CAMERA)
-MAX_TCP_BACKLOG_BYTES = 1 << 20   # a client that does not read loses messages beyond this
+MAX_TCP_BACKLOG_BYTES = 1 << 20
+CLOSE_TIMEOUT_S = 2.0             # handlers of connected TCP clients get this long to end   # a client that does not read loses messages beyond this
 # Unsigned messages accepted when signing is on (ArduPilot also lets RADIO_STATUS through).
 UNSIGNED_ALLOWED = (mavlink.MAVLINK_MSG_ID_HEARTBEAT, mavlink.MAVLINK_MSG_ID_RADIO_STATUS)
 _SIGNING_EPOCH_UNIX_S = 1420070400   # MAVLink signing timestamps count 10 us from 2015-01-01
@@ -85,17 +86,23 @@ class _Client:
         self.parser.robust_parsing = True
         self._sink = _Sink()
         self.encoders = {comp: mavlink.MAVLink(self._sink, sysid, comp) for comp in COMPONENTS}
+        self.link_id = link_id
         if signing_key is not None:
-            stamp = int(max(0.0, time.time() - _SIGNING_EPOCH_UNIX_S) * 100_000)
-            for enc in self.encoders.values():
-                enc.signing.secret_key = signing_key
-                enc.signing.sign_outgoing = True
-                enc.signing.link_id = link_id
-                enc.signing.timestamp = stamp
-            self.parser.signing.secret_key = signing_key
-            self.parser.signing.timestamp = stamp
-            self.parser.signing.allow_unsigned_callback = (
-                lambda _mav, msg_id: msg_id in UNSIGNED_ALLOWED)
+            self.set_signing(signing_key, int(max(0.0, time.time() - _SIGNING_EPOCH_UNIX_S)
+                                              * 100_000))
+
+    def set_signing(self, key: bytes | None, timestamp: int) -> None:
+        """Sign everything sent and refuse unsigned input (but UNSIGNED_ALLOWED) with ``key``;
+        None turns signing off."""
+        for enc in self.encoders.values():
+            enc.signing.secret_key = key
+            enc.signing.sign_outgoing = key is not None
+            enc.signing.link_id = self.link_id
+            enc.signing.timestamp = max(timestamp, enc.signing.timestamp)
+        self.parser.signing.secret_key = key
+        self.parser.signing.timestamp = max(timestamp, self.parser.signing.timestamp)
+        self.parser.signing.allow_unsigned_callback = (
+            (lambda _mav, msg_id: msg_id in UNSIGNED_ALLOWED) if key is not None else None)
 
     def encode(self, comp: int, msg) -> bytes:
         self.encoders[comp].send(msg)   # advances this component's sequence number
@@ -151,14 +158,31 @@ class LinkHub:
             self._server.close()
         for _, writer in list(self._tcp_clients.values()):
             writer.close()
-        for task in list(self._handlers):
-            task.cancel()
+        # Closing the transport ends each handler's read with EOF: let them return on their
+        # own. A cancelled handler makes asyncio's StreamReaderProtocol log a CancelledError
+        # traceback ("Exception in callback ... connection_made"), so cancel only stragglers.
         if self._handlers:
-            await asyncio.gather(*self._handlers, return_exceptions=True)
+            _, pending = await asyncio.wait(list(self._handlers), timeout=CLOSE_TIMEOUT_S)
+            for task in pending:
+                task.cancel()
+            if pending:
+                await asyncio.gather(*pending, return_exceptions=True)
         if self._server is not None:
             await self._server.wait_closed()
         if self._udp_transport is not None:
             self._udp_transport.close()
+
+    def set_signing_key(self, key: bytes, timestamp: int) -> None:
+        """SETUP_SIGNING: the key (all zeros: off) and its initial timestamp, on every link at
+        once and for every client that connects later (ArduPilot keeps one key for all links)."""
+        use = key if any(key) else None
+        self._signing_key = use
+        for client in self._all_clients():
+            client.set_signing(use, timestamp)
+        log.info("signing %s by SETUP_SIGNING", "on" if use else "off")
+
+    def _all_clients(self) -> list[_Client]:
+        return [c for c, _ in self._tcp_clients.values()] + list(self._udp_clients.values())
 
     def statistics(self) -> LinkStatistics:
         return LinkStatistics(tcp_clients=len(self._tcp_clients),

@@ -44,7 +44,13 @@ class ParamTable:
             ("WPNAV_SPEED", 1000.0, MAV_PARAM_TYPE_REAL32),   # cm/s, AC_WPNav default
             ("WPNAV_ACCEL", 250.0, MAV_PARAM_TYPE_REAL32),    # cm/s/s, AC_WPNav default
             ("ANGLE_MAX", 3000.0, MAV_PARAM_TYPE_INT16),      # cdeg, ArduCopter default
-            ("DISARM_DELAY", 10.0, MAV_PARAM_TYPE_INT8),      # s (listed only; see docs)
+            ("WPNAV_SPEED_UP", 250.0, MAV_PARAM_TYPE_REAL32), # cm/s, AC_WPNav default
+            ("WPNAV_SPEED_DN", 150.0, MAV_PARAM_TYPE_REAL32), # cm/s, AC_WPNav default
+            ("WPNAV_ACCEL_Z", 100.0, MAV_PARAM_TYPE_REAL32),  # cm/s/s (listed; physics 1 m/s/s)
+            ("LAND_SPEED", 50.0, MAV_PARAM_TYPE_INT16),       # cm/s below LAND_ALT_LOW
+            ("LAND_SPEED_HIGH", 0.0, MAV_PARAM_TYPE_INT16),   # cm/s above it; 0: WPNAV_SPEED_DN
+            ("LAND_ALT_LOW", 1000.0, MAV_PARAM_TYPE_INT16),   # cm
+            ("DISARM_DELAY", 10.0, MAV_PARAM_TYPE_INT8),      # s landed with idle motors; 0: never
         ]
         for port in STREAM_PORTS:
             for suffix in STREAM_SUFFIXES:

@@ -4,19 +4,21 @@ Simulated time is step_index * dt_s; everything that depends on time reads `t_s`
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from . import camera
-from .vehicle import (Control, Demand, Limits, Odometry, TruthState, initial_odometry, steer,
+from .vehicle import (Demand, Limits, Odometry, TruthState, desired_climb_mps, initial_odometry,
                       step_odometry, step_truth)
-from .world import Scenario, obstacles_at
+from .world import Scenario, obstacles_at, wrap_pi
 
 # Separate, independent random streams derived from the one --seed.
 STREAM_PHYSICS = 1
 STREAM_CAMERA = 2
 STREAM_LINK_DROP = 3
+STREAM_POSITION = 4
 
 
 def make_rng(seed: int, stream: int) -> np.random.Generator:
@@ -24,15 +26,43 @@ def make_rng(seed: int, stream: int) -> np.random.Generator:
 
 
 @dataclass(frozen=True)
+class ClimbLimits:
+    """Vertical limits in force (from WPNAV_SPEED_UP/DN, or LAND_SPEED in LAND)."""
+    max_up_mps: float = 2.5
+    max_down_mps: float = 1.5
+
+
+@dataclass(frozen=True)
 class StepRecord:
     """What one step did, for diagnostics and tests."""
-    control: Control
     speed_noise_mps: float
     heading_noise_rad: float
 
 
+class PositionError:
+    """GPS-like error of the reported position: white noise plus a slow Gauss-Markov bias."""
+
+    def __init__(self, sigma_m: float, bias_sigma_m: float, tau_s: float,
+                 rng: np.random.Generator) -> None:
+        self.sigma_m, self.bias_sigma_m, self.tau_s = sigma_m, bias_sigma_m, tau_s
+        self._rng = rng
+        self.bias_ne_m = (rng.normal(0.0, 1.0, 2) * bias_sigma_m).tolist()
+        self.white_ne_m = [0.0, 0.0]
+
+    def step(self, dt_s: float) -> None:
+        phi = math.exp(-dt_s / self.tau_s)
+        drive = self.bias_sigma_m * math.sqrt(1.0 - phi * phi)
+        draws = self._rng.normal(0.0, 1.0, 4)      # always four, whatever the sigmas
+        self.bias_ne_m = [phi * b + drive * float(d) for b, d in zip(self.bias_ne_m, draws[:2])]
+        self.white_ne_m = [self.sigma_m * float(d) for d in draws[2:]]
+
+    @property
+    def total_sigma_m(self) -> float:
+        return math.hypot(self.sigma_m, self.bias_sigma_m)
+
+
 class Simulation:
-    """Steps the paper's model on simulated time and keeps the reported odometry."""
+    """Steps the multicopter model on simulated time and keeps the reported odometry."""
 
     def __init__(self, scenario: Scenario, seed: int = 0) -> None:
         self.scenario = scenario
@@ -40,39 +70,61 @@ class Simulation:
         self.limits = Limits(max_turn_rate_rad_s=scenario.vehicle.max_turn_rate_rad_s,
                              max_accel_mps2=scenario.vehicle.max_accel_mps2)
         start = scenario.world.start
-        self.truth = TruthState(north_m=start.north_m, east_m=start.east_m,
-                                yaw_rad=start.yaw_rad, speed_mps=0.0)
+        self.truth = TruthState(north_m=start.north_m, east_m=start.east_m, yaw_rad=start.yaw_rad)
         self.odometry: Odometry = initial_odometry(self.truth)
         self.step_index = 0
         self._rng_physics = make_rng(seed, STREAM_PHYSICS)
         self._rng_camera = make_rng(seed, STREAM_CAMERA)
+        noise = scenario.noise
+        self.position_error = PositionError(noise.position_sigma_m or 0.0,
+                                            noise.position_bias_sigma_m,
+                                            noise.position_bias_tau_s,
+                                            make_rng(seed, STREAM_POSITION))
+        self.yaw_noise_rad = 0.0
 
     @property
     def t_s(self) -> float:
         return self.step_index * self.dt_s
 
-    def step(self, demand: Demand, armed: bool) -> StepRecord:
+    def step(self, demand: Demand, armed: bool, climb: ClimbLimits = ClimbLimits()) -> StepRecord:
         """One physics step. A disarmed vehicle cannot move; a resting one reports no noise."""
         if not armed:
-            demand = Demand(speed_mps=0.0)
-        control = steer(demand, self.odometry.yaw_rad, self.truth.speed_mps, self.limits,
-                        self.dt_s)
-        if not armed:
-            # Disarmed (including a forced disarm in flight): the 2D vehicle is on the ground.
-            control = Control(speed_mps=0.0, yaw_change_rad=0.0)
+            demand = Demand(grounded=True)
+        climb_mps = desired_climb_mps(demand, self.truth.up_m, climb.max_up_mps,
+                                      climb.max_down_mps, self.limits.accel_up_mps2)
         noise = self.scenario.noise
-        # Draw every step, even at rest, so the stream does not depend on arming history.
-        speed_noise = float(self._rng_physics.normal(0.0, 1.0)) * noise.speed_sigma_mps
-        heading_noise = float(self._rng_physics.normal(0.0, 1.0)) * noise.heading_change_sigma_rad
-        at_rest = (not armed) and control.speed_mps == 0.0 and control.yaw_change_rad == 0.0
-        if at_rest:
+        # Draw every step, even at rest, so the streams do not depend on arming history.
+        draws = self._rng_physics.normal(0.0, 1.0, 5)
+        speed_noise = float(draws[0]) * noise.speed_sigma_mps
+        heading_noise = float(draws[1]) * noise.heading_change_sigma_rad
+        vel_noise = (float(draws[2]) * noise.velocity_sigma_mps,
+                     float(draws[3]) * noise.velocity_sigma_mps)
+        self.position_error.step(self.dt_s)
+        before = self.truth
+        self.truth = step_truth(before, demand, self.limits, self.dt_s, self.odometry.yaw_rad,
+                                climb_mps)
+        if demand.grounded:
             speed_noise = heading_noise = 0.0
-        self.truth = step_truth(self.truth, control, self.dt_s)
-        self.odometry = step_odometry(self.odometry, control.yaw_change_rad, control.speed_mps,
-                                      speed_noise, heading_noise, self.dt_s)
+            vel_noise = (0.0, 0.0)
+            self.yaw_noise_rad = 0.0
+        else:
+            self.yaw_noise_rad = float(draws[4]) * noise.yaw_sigma_rad
+        self.odometry = step_odometry(self.odometry, before, self.truth, speed_noise,
+                                      heading_noise, vel_noise, self.dt_s)
         self.step_index += 1
-        return StepRecord(control=control, speed_noise_mps=speed_noise,
-                          heading_noise_rad=heading_noise)
+        return StepRecord(speed_noise_mps=speed_noise, heading_noise_rad=heading_noise)
+
+    def reported_position_ne_m(self) -> tuple[float, float]:
+        """LOCAL_POSITION_NED x, y: GPS-like (truth + error) with a GPS, else dead reckoning."""
+        if not self.scenario.noise.has_gps:
+            return self.odometry.north_m, self.odometry.east_m
+        err = self.position_error
+        return (self.truth.north_m + err.bias_ne_m[0] + err.white_ne_m[0],
+                self.truth.east_m + err.bias_ne_m[1] + err.white_ne_m[1])
+
+    def reported_yaw_rad(self) -> float:
+        """ATTITUDE yaw: the integrated heading plus the compass-like white noise."""
+        return wrap_pi(self.odometry.yaw_rad + self.yaw_noise_rad)
 
     def obstacles_now(self) -> list[tuple[int, float, float, float]]:
         """[(id, north_m, east_m, radius_m)] at the current simulated time."""

@@ -12,6 +12,11 @@ from .params import ParamTable
 MSG_HEARTBEAT = 0
 MSG_SYS_STATUS = 1
 MSG_SYSTEM_TIME = 2
+MSG_GPS_RAW_INT = 24
+MSG_GPS_GLOBAL_ORIGIN = 49
+MSG_BATTERY_STATUS = 147
+MSG_EKF_STATUS_REPORT = 193
+MSG_EXTENDED_SYS_STATE = 245
 MSG_ATTITUDE = 30
 MSG_LOCAL_POSITION_NED = 32
 MSG_GLOBAL_POSITION_INT = 33
@@ -24,10 +29,14 @@ DATA_STREAM_SUFFIX = {1: "RAW_SENS", 2: "EXT_STAT", 3: "RC_CHAN", 4: "RAW_CTRL",
                       10: "EXTRA1", 11: "EXTRA2", 12: "EXTRA3"}
 MAV_DATA_STREAM_ALL = 0
 
-# Which stream each message rides on (as in ArduPilot's GCS_MAVLink_Parameters.cpp, except
-# POSITION_TARGET_LOCAL_NED, which the stub sends with the position stream while in GUIDED).
+# Which stream each message rides on (as in ArduCopter's GCS_MAVLink_Copter.cpp stream lists,
+# except POSITION_TARGET_LOCAL_NED, which the stub sends with the position stream while in
+# GUIDED). EXTENDED_SYS_STATE is in no stream on ArduCopter: only SET_MESSAGE_INTERVAL sends it.
 STREAM_OF_MESSAGE = {
     MSG_SYS_STATUS: "EXT_STAT",
+    MSG_GPS_RAW_INT: "EXT_STAT",
+    MSG_BATTERY_STATUS: "EXTRA3",
+    MSG_EKF_STATUS_REPORT: "EXTRA3",
     MSG_GLOBAL_POSITION_INT: "POSITION",
     MSG_LOCAL_POSITION_NED: "POSITION",
     MSG_POSITION_TARGET_LOCAL_NED: "POSITION",
@@ -37,7 +46,8 @@ STREAM_OF_MESSAGE = {
 }
 HEARTBEAT_INTERVAL_S = 1.0
 # Messages that can be streamed at all (SET_MESSAGE_INTERVAL on anything else is refused).
-STREAMABLE = (MSG_HEARTBEAT, *STREAM_OF_MESSAGE, MSG_HOME_POSITION)
+STREAMABLE = (MSG_HEARTBEAT, *STREAM_OF_MESSAGE, MSG_HOME_POSITION, MSG_GPS_GLOBAL_ORIGIN,
+              MSG_EXTENDED_SYS_STATE)
 
 _DISABLED = -1.0
 

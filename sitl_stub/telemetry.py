@@ -58,14 +58,15 @@ def heading_cdeg(yaw_rad: float) -> int:
     return int(round(math.degrees(yaw_rad) % 360.0 * 100.0)) % 36000
 
 
-def heartbeat_autopilot(mode: int, armed: bool) -> mavlink.MAVLink_message:
+def heartbeat_autopilot(mode: int, armed: bool, landed: bool = True) -> mavlink.MAVLink_message:
+    """system_status as GCS_MAVLINK_Copter::vehicle_system_status: STANDBY while landed."""
     base = (mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | mavlink.MAV_MODE_FLAG_STABILIZE_ENABLED
             | mavlink.MAV_MODE_FLAG_MANUAL_INPUT_ENABLED)
     if mode in _GUIDED_FLAG_MODES:
         base |= mavlink.MAV_MODE_FLAG_GUIDED_ENABLED
     if armed:
         base |= mavlink.MAV_MODE_FLAG_SAFETY_ARMED
-    status = mavlink.MAV_STATE_ACTIVE if armed else mavlink.MAV_STATE_STANDBY
+    status = mavlink.MAV_STATE_STANDBY if landed else mavlink.MAV_STATE_ACTIVE
     return mavlink.MAVLink_heartbeat_message(
         mavlink.MAV_TYPE_QUADROTOR, mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA, base, mode, status, 3)
 
@@ -75,8 +76,91 @@ def heartbeat_camera() -> mavlink.MAVLink_message:
         mavlink.MAV_TYPE_CAMERA, mavlink.MAV_AUTOPILOT_INVALID, 0, 0, mavlink.MAV_STATE_ACTIVE, 3)
 
 
-def sys_status() -> mavlink.MAVLink_message:
-    return mavlink.MAVLink_sys_status_message(0, 0, 0, 0, 12600, -1, -1, 0, 0, 0, 0, 0, 0)
+# SYS_STATUS sensor bits as ArduCopter sets them (GCS::update_sensor_status_flags in
+# libraries/GCS_MAVLink/GCS.cpp, GCS_Copter::update_vehicle_sensor_status_flags), checked against
+# the ArduCopter 4.6 SITL binary in /work/shared/ardupilot (present 0x5371fc2f with its GPS, RC
+# and propulsion bits; the stub has no RC receiver or ESC telemetry).
+_S = mavlink
+SENSORS_ALWAYS = (_S.MAV_SYS_STATUS_SENSOR_3D_GYRO | _S.MAV_SYS_STATUS_SENSOR_3D_ACCEL
+                  | _S.MAV_SYS_STATUS_SENSOR_3D_MAG | _S.MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE
+                  | _S.MAV_SYS_STATUS_AHRS | _S.MAV_SYS_STATUS_SENSOR_BATTERY
+                  | _S.MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS | _S.MAV_SYS_STATUS_PREARM_CHECK
+                  | _S.MAV_SYS_STATUS_SENSOR_ANGULAR_RATE_CONTROL
+                  | _S.MAV_SYS_STATUS_SENSOR_ATTITUDE_STABILIZATION
+                  | _S.MAV_SYS_STATUS_SENSOR_YAW_POSITION | _S.MAV_SYS_STATUS_LOGGING
+                  | _S.MAV_SYS_STATUS_TERRAIN)
+SENSORS_POSITION_CONTROL = (_S.MAV_SYS_STATUS_SENSOR_Z_ALTITUDE_CONTROL
+                            | _S.MAV_SYS_STATUS_SENSOR_XY_POSITION_CONTROL)
+# Healthy whether present or not: a fence that has not failed, a proximity sensor that is absent.
+SENSORS_HEALTHY_ANYWAY = _S.MAV_SYS_STATUS_GEOFENCE | _S.MAV_SYS_STATUS_SENSOR_PROXIMITY
+
+
+def sys_status(has_gps: bool, position_control_active: bool, voltage_mv: int, current_ca: int,
+               remaining_pct: int) -> mavlink.MAVLink_message:
+    """Present / enabled / healthy sensor bits as ArduCopter reports a healthy vehicle.
+
+    GEOFENCE: present (ArduCopter has a fence), not enabled, but healthy
+    (``!fence->sys_status_failed()``): a ground station reads a cleared health bit of a fence as a
+    breach (MAVProxy says "fence breach"). The position controllers are enabled (and healthy)
+    only while active.
+    """
+    present = SENSORS_ALWAYS | SENSORS_POSITION_CONTROL | _S.MAV_SYS_STATUS_GEOFENCE
+    enabled = SENSORS_ALWAYS
+    if has_gps:
+        present |= _S.MAV_SYS_STATUS_SENSOR_GPS
+        enabled |= _S.MAV_SYS_STATUS_SENSOR_GPS
+    if position_control_active:
+        enabled |= SENSORS_POSITION_CONTROL
+    health = enabled | SENSORS_HEALTHY_ANYWAY
+    return mavlink.MAVLink_sys_status_message(present, enabled, health, 0, voltage_mv, current_ca,
+                                              remaining_pct, 0, 0, 0, 0, 0, 0)
+
+
+def battery_status(voltage_mv: int, current_ca: int, consumed_mah: int,
+                   remaining_pct: int) -> mavlink.MAVLink_message:
+    cells = [voltage_mv] + [UINT16_MAX] * 9
+    return mavlink.MAVLink_battery_status_message(
+        0, mavlink.MAV_BATTERY_FUNCTION_UNKNOWN, mavlink.MAV_BATTERY_TYPE_UNKNOWN, 32767, cells,
+        current_ca, consumed_mah, -1, remaining_pct, 0, mavlink.MAV_BATTERY_CHARGE_STATE_OK)
+
+
+def extended_sys_state(landed_state: int, vtol_state: int) -> mavlink.MAVLink_message:
+    return mavlink.MAVLink_extended_sys_state_message(vtol_state, landed_state)
+
+
+def gps_raw_int(t_s: float, has_gps: bool, lat_deg: float, lon_deg: float, alt_m: float,
+                sigma_m: float, speed_mps: float, course_rad: float) -> mavlink.MAVLink_message:
+    """GPS_RAW_INT: a 3D fix with the position error's 1-sigma in eph (cm, HDOP x 100 with a
+    1 m UERE) and h_acc (mm); without a GPS, NO_GPS and everything unknown."""
+    if not has_gps:
+        return mavlink.MAVLink_gps_raw_int_message(int(t_s * 1e6), mavlink.GPS_FIX_TYPE_NO_GPS,
+                                                   0, 0, 0, UINT16_MAX, UINT16_MAX, UINT16_MAX,
+                                                   UINT16_MAX, 0)
+    eph = int(min(max(round(sigma_m * 100.0), 1), UINT16_MAX - 1))
+    return mavlink.MAVLink_gps_raw_int_message(
+        int(t_s * 1e6), mavlink.GPS_FIX_TYPE_3D_FIX, _deg_e7(lat_deg), _deg_e7(lon_deg),
+        int(round(alt_m * 1000)), eph, eph, int(round(speed_mps * 100)),
+        heading_cdeg(course_rad), 12, 0, int(round(sigma_m * 1000)), int(round(sigma_m * 1500)))
+
+
+# EKF_STATUS_REPORT flags of a healthy EKF3: with a GPS, absolute horizontal position too.
+EKF_FLAGS_RELATIVE = (mavlink.EKF_ATTITUDE | mavlink.EKF_VELOCITY_HORIZ | mavlink.EKF_VELOCITY_VERT
+                      | mavlink.EKF_POS_HORIZ_REL | mavlink.EKF_POS_VERT_ABS
+                      | mavlink.EKF_PRED_POS_HORIZ_REL)
+EKF_FLAGS_ABSOLUTE = EKF_FLAGS_RELATIVE | mavlink.EKF_POS_HORIZ_ABS | mavlink.EKF_PRED_POS_HORIZ_ABS
+
+
+def ekf_status_report(has_gps: bool) -> mavlink.MAVLink_message:
+    """Variances are ArduPilot's normalised test ratios (< 0.5 good, > 1 failing)."""
+    flags = EKF_FLAGS_ABSOLUTE if has_gps else EKF_FLAGS_RELATIVE
+    return mavlink.MAVLink_ekf_status_report_message(flags, 0.05, 0.05 if has_gps else 0.0,
+                                                     0.02, 0.03, 0.0)
+
+
+def gps_global_origin(origin: Origin, t_s: float) -> mavlink.MAVLink_message:
+    return mavlink.MAVLink_gps_global_origin_message(
+        _deg_e7(origin.lat_deg), _deg_e7(origin.lon_deg), int(round(origin.alt_m * 1000)),
+        int(t_s * 1e6))
 
 
 def system_time(t_s: float, start_unix_s: float) -> mavlink.MAVLink_message:
@@ -84,22 +168,28 @@ def system_time(t_s: float, start_unix_s: float) -> mavlink.MAVLink_message:
     return mavlink.MAVLink_system_time_message(int((start_unix_s + t_s) * 1e6), time_boot_ms(t_s))
 
 
-def attitude(t_s: float, odom: Odometry) -> mavlink.MAVLink_message:
-    return mavlink.MAVLink_attitude_message(time_boot_ms(t_s), 0.0, 0.0, _angle_f32(odom.yaw_rad),
+def attitude(t_s: float, odom: Odometry, yaw_rad: float) -> mavlink.MAVLink_message:
+    return mavlink.MAVLink_attitude_message(time_boot_ms(t_s), 0.0, 0.0, _angle_f32(yaw_rad),
                                             0.0, 0.0, odom.yaw_rate_rad_s)
 
 
-def local_position_ned(t_s: float, odom: Odometry) -> mavlink.MAVLink_message:
+def local_position_ned(t_s: float, odom: Odometry, north_m: float,
+                       east_m: float) -> mavlink.MAVLink_message:
+    """x, y: the reported position (GPS-like or dead-reckoned); z = -altitude, vz = -climb."""
     return mavlink.MAVLink_local_position_ned_message(
-        time_boot_ms(t_s), odom.north_m, odom.east_m, 0.0, odom.vel_north_mps, odom.vel_east_mps, 0.0)
+        time_boot_ms(t_s), north_m, east_m, -odom.up_m, odom.vel_north_mps, odom.vel_east_mps,
+        -odom.vel_up_mps)
 
 
-def global_position_int(t_s: float, odom: Odometry, origin: Origin) -> mavlink.MAVLink_message:
-    lat, lon = origin.to_lat_lon_deg(odom.north_m, odom.east_m)
+def global_position_int(t_s: float, odom: Odometry, north_m: float, east_m: float,
+                        origin: Origin, home_up_m: float) -> mavlink.MAVLink_message:
+    """alt: MSL (origin + altitude), relative_alt: above home, both mm; vz cm/s down."""
+    lat, lon = origin.to_lat_lon_deg(north_m, east_m)
     return mavlink.MAVLink_global_position_int_message(
-        time_boot_ms(t_s), _deg_e7(lat), _deg_e7(lon), int(round(origin.alt_m * 1000)), 0,
-        _int16(odom.vel_north_mps * 100), _int16(odom.vel_east_mps * 100), 0,
-        heading_cdeg(odom.yaw_rad))
+        time_boot_ms(t_s), _deg_e7(lat), _deg_e7(lon),
+        int(round((origin.alt_m + odom.up_m) * 1000)), int(round((odom.up_m - home_up_m) * 1000)),
+        _int16(odom.vel_north_mps * 100), _int16(odom.vel_east_mps * 100),
+        _int16(-odom.vel_up_mps * 100), heading_cdeg(odom.yaw_rad))
 
 
 def simstate(truth: TruthState, origin: Origin) -> mavlink.MAVLink_message:
@@ -111,16 +201,17 @@ def simstate(truth: TruthState, origin: Origin) -> mavlink.MAVLink_message:
 
 def position_target_local_ned(t_s: float, fields: dict) -> mavlink.MAVLink_message:
     return mavlink.MAVLink_position_target_local_ned_message(
-        time_boot_ms(t_s), MAV_FRAME_LOCAL_NED, fields["type_mask"], fields["x"], fields["y"], 0.0,
-        fields["vx"], fields["vy"], 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+        time_boot_ms(t_s), MAV_FRAME_LOCAL_NED, fields["type_mask"], fields["x"], fields["y"],
+        fields.get("z", 0.0), fields["vx"], fields["vy"], fields.get("vz", 0.0), 0.0, 0.0, 0.0, 0.0,
+        0.0)
 
 
-def home_position(origin: Origin, home_north_m: float, home_east_m: float,
+def home_position(origin: Origin, home_north_m: float, home_east_m: float, home_up_m: float,
                   t_s: float) -> mavlink.MAVLink_message:
     lat, lon = origin.to_lat_lon_deg(home_north_m, home_east_m)
     return mavlink.MAVLink_home_position_message(
-        _deg_e7(lat), _deg_e7(lon), int(round(origin.alt_m * 1000)), home_north_m, home_east_m,
-        0.0, [1.0, 0.0, 0.0, 0.0], 0.0, 0.0, 0.0, int(t_s * 1e6))
+        _deg_e7(lat), _deg_e7(lon), int(round((origin.alt_m + home_up_m) * 1000)), home_north_m,
+        home_east_m, -home_up_m, [1.0, 0.0, 0.0, 0.0], 0.0, 0.0, 0.0, int(t_s * 1e6))
 
 
 def autopilot_version() -> mavlink.MAVLink_message:

@@ -37,6 +37,13 @@ class Origin:
             east_m / (EARTH_RADIUS_M * math.cos(math.radians(self.lat_deg))))
         return lat_deg, lon_deg
 
+    def to_north_east_m(self, lat_deg: float, lon_deg: float) -> tuple[float, float]:
+        """The inverse of to_lat_lon_deg: (north_m, east_m) of a point from this origin."""
+        north_m = math.radians(lat_deg - self.lat_deg) * EARTH_RADIUS_M
+        east_m = (math.radians(lon_deg - self.lon_deg)
+                  * EARTH_RADIUS_M * math.cos(math.radians(self.lat_deg)))
+        return north_m, east_m
+
 
 @dataclass(frozen=True)
 class Pose:
@@ -85,9 +92,27 @@ class VehicleConfig:
 
 @dataclass(frozen=True)
 class NoiseConfig:
-    """Q: odometry noise, one sample of each per physics step."""
+    """Q: odometry noise, one sample of each per physics step; and the position's error.
+
+    velocity_sigma_mps: extra white noise on each reported NED velocity axis.
+    yaw_sigma_rad: white noise on the reported yaw (a compass-aided heading), on top of the
+        integrated heading-change noise.
+    position_sigma_m: None: no GPS (LOCAL_POSITION_NED x, y are the dead-reckoned odometry);
+        else x, y = truth + a slow bias + white noise of this sigma per axis (GPS-like).
+    position_bias_sigma_m, position_bias_tau_s: the bias, a first-order Gauss-Markov process
+        per axis with this stationary sigma and correlation time.
+    """
     speed_sigma_mps: float
     heading_change_sigma_rad: float
+    velocity_sigma_mps: float = 0.0
+    yaw_sigma_rad: float = 0.0
+    position_sigma_m: float | None = None
+    position_bias_sigma_m: float = 0.0
+    position_bias_tau_s: float = 300.0
+
+    @property
+    def has_gps(self) -> bool:
+        return self.position_sigma_m is not None
 
 
 @dataclass(frozen=True)
@@ -275,9 +300,17 @@ def _parse_vehicle(r: _Reader) -> VehicleConfig:
 
 
 def _parse_noise(r: _Reader) -> NoiseConfig:
+    position_sigma = r.data.get("position_sigma_m")
     cfg = NoiseConfig(
         speed_sigma_mps=r.number("speed_sigma_mps", minimum=0),
-        heading_change_sigma_rad=math.radians(r.number("heading_change_sigma_deg", minimum=0)))
+        heading_change_sigma_rad=math.radians(r.number("heading_change_sigma_deg", minimum=0)),
+        velocity_sigma_mps=r.number("velocity_sigma_mps", 0.0, minimum=0),
+        yaw_sigma_rad=math.radians(r.number("yaw_sigma_deg", 0.0, minimum=0)),
+        position_sigma_m=(None if position_sigma is None
+                          else r.number("position_sigma_m", minimum=0)),
+        position_bias_sigma_m=r.number("position_bias_sigma_m", 0.0, minimum=0),
+        position_bias_tau_s=r.number("position_bias_tau_s", 300.0, minimum=0, strict_min=True))
+    r.used.add("position_sigma_m")
     r.finish()
     return cfg
 

@@ -28,12 +28,24 @@ MAV_COMP_ID_MISSIONPLANNER = mavlink.MAV_COMP_ID_MISSIONPLANNER        # 190, th
 NO_OBSTACLE_ID = 65535                                                # UINT16_MAX: "no id"
 MSG_ID_ATTITUDE = mavlink.MAVLINK_MSG_ID_ATTITUDE
 MSG_ID_LOCAL_POSITION_NED = mavlink.MAVLINK_MSG_ID_LOCAL_POSITION_NED
+MSG_ID_GLOBAL_POSITION_INT = mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT
+MSG_ID_EXTENDED_SYS_STATE = mavlink.MAVLINK_MSG_ID_EXTENDED_SYS_STATE
+MSG_ID_HOME_POSITION = mavlink.MAVLINK_MSG_ID_HOME_POSITION
+MSG_ID_GPS_GLOBAL_ORIGIN = mavlink.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN
 # SET_POSITION_TARGET_LOCAL_NED.type_mask: ignore position (0x7), acceleration (0x1C0) and yaw
-# rate (0x800); use velocity and yaw.
+# rate (0x800); use velocity (vx, vy and vz: ArduCopter flies vz as a climb rate) and yaw.
 VELOCITY_YAW_TYPE_MASK = 0x09C7
-# REQUEST_DATA_STREAM fallback: LOCAL_POSITION_NED rides POSITION, ATTITUDE rides EXTRA1.
+# REQUEST_DATA_STREAM fallback: LOCAL_POSITION_NED and GLOBAL_POSITION_INT ride POSITION,
+# ATTITUDE rides EXTRA1. EXTENDED_SYS_STATE rides no stream on ArduCopter (interval only).
 DATA_STREAMS_FOR = {MSG_ID_LOCAL_POSITION_NED: mavlink.MAV_DATA_STREAM_POSITION,
+                    MSG_ID_GLOBAL_POSITION_INT: mavlink.MAV_DATA_STREAM_POSITION,
                     MSG_ID_ATTITUDE: mavlink.MAV_DATA_STREAM_EXTRA1}
+# MAV_LANDED_STATE
+LANDED_STATE_UNDEFINED = mavlink.MAV_LANDED_STATE_UNDEFINED      # 0
+LANDED_STATE_ON_GROUND = mavlink.MAV_LANDED_STATE_ON_GROUND      # 1
+LANDED_STATE_IN_AIR = mavlink.MAV_LANDED_STATE_IN_AIR            # 2
+LANDED_STATE_TAKEOFF = mavlink.MAV_LANDED_STATE_TAKEOFF          # 3
+LANDED_STATE_LANDING = mavlink.MAV_LANDED_STATE_LANDING          # 4
 SEVERITY_WARNING = mavlink.MAV_SEVERITY_WARNING
 SEVERITY_NOTICE = mavlink.MAV_SEVERITY_NOTICE
 SEVERITY_INFO = mavlink.MAV_SEVERITY_INFO
@@ -82,6 +94,42 @@ class LocalPosition:
     east_m: float
     vel_north_mps: float
     vel_east_mps: float
+    down_m: float = math.nan          # z: metres below the EKF origin
+    vel_down_mps: float = math.nan    # vz
+
+
+@dataclass(frozen=True)
+class GlobalPosition:
+    """GLOBAL_POSITION_INT: the altitude above home (relative_alt) and the climb rate."""
+    system_id: int
+    component_id: int
+    t_s: float
+    lat_deg: float
+    lon_deg: float
+    relative_alt_m: float
+    vel_down_mps: float
+
+
+@dataclass(frozen=True)
+class LandedState:
+    """EXTENDED_SYS_STATE (no time field of its own)."""
+    system_id: int
+    component_id: int
+    landed_state: int                 # MAV_LANDED_STATE_*
+    vtol_state: int
+
+
+@dataclass(frozen=True)
+class GeoReference:
+    """A point known both on the globe and in LOCAL_NED: the EKF origin (GPS_GLOBAL_ORIGIN,
+    at north = east = 0) or HOME_POSITION (at its x, y)."""
+    system_id: int
+    component_id: int
+    kind: str                         # 'origin' or 'home'
+    lat_deg: float
+    lon_deg: float
+    north_m: float
+    east_m: float
 
 
 @dataclass(frozen=True)
@@ -111,7 +159,8 @@ class StatusText:
     text: str
 
 
-Event = Heartbeat | Attitude | LocalPosition | ObstacleFrame | CommandAck | StatusText
+Event = Heartbeat | Attitude | LocalPosition | ObstacleFrame | CommandAck | StatusText \
+    | GlobalPosition | LandedState | GeoReference
 
 
 def decode(msg) -> Event | None:
@@ -131,7 +180,28 @@ def _attitude(msg, sysid: int, compid: int) -> Attitude:
 
 
 def _local_position(msg, sysid: int, compid: int) -> LocalPosition:
-    return LocalPosition(sysid, compid, msg.time_boot_ms / 1000.0, msg.x, msg.y, msg.vx, msg.vy)
+    return LocalPosition(sysid, compid, msg.time_boot_ms / 1000.0, msg.x, msg.y, msg.vx, msg.vy,
+                         msg.z, msg.vz)
+
+
+def _global_position(msg, sysid: int, compid: int) -> GlobalPosition:
+    """lat, lon in 1e7 degrees; relative_alt in mm above home; vz in cm/s, down positive."""
+    return GlobalPosition(sysid, compid, msg.time_boot_ms / 1000.0, msg.lat / 1e7, msg.lon / 1e7,
+                          msg.relative_alt / 1000.0, msg.vz / 100.0)
+
+
+def _extended_sys_state(msg, sysid: int, compid: int) -> LandedState:
+    return LandedState(sysid, compid, msg.landed_state, msg.vtol_state)
+
+
+def _gps_global_origin(msg, sysid: int, compid: int) -> GeoReference:
+    return GeoReference(sysid, compid, "origin", msg.latitude / 1e7, msg.longitude / 1e7, 0.0, 0.0)
+
+
+def _home_position(msg, sysid: int, compid: int) -> GeoReference:
+    """latitude/longitude in 1e7 degrees; x, y: home in LOCAL_NED (m from the EKF origin)."""
+    return GeoReference(sysid, compid, "home", msg.latitude / 1e7, msg.longitude / 1e7,
+                        msg.x, msg.y)
 
 
 def _obstacle_3d(msg, sysid: int, compid: int) -> ObstacleFrame:
@@ -216,6 +286,10 @@ _DECODERS = {
     "HEARTBEAT": _heartbeat,
     "ATTITUDE": _attitude,
     "LOCAL_POSITION_NED": _local_position,
+    "GLOBAL_POSITION_INT": _global_position,
+    "EXTENDED_SYS_STATE": _extended_sys_state,
+    "GPS_GLOBAL_ORIGIN": _gps_global_origin,
+    "HOME_POSITION": _home_position,
     "OBSTACLE_DISTANCE_3D": _obstacle_3d,
     "OBSTACLE_DISTANCE": _obstacle_sectors,
     "COMMAND_ACK": _command_ack,
@@ -226,7 +300,8 @@ _DECODERS = {
 # ------------------------------------------------------------------ outbound intents
 @dataclass(frozen=True)
 class VelocitySetpoint:
-    """Velocity (LOCAL_NED, autopilot frame) and yaw for the vehicle; t_s is the vehicle's time."""
+    """Velocity (LOCAL_NED, autopilot frame) and yaw for the vehicle; t_s is the vehicle's time.
+    vel_down_mps: the vertical term (ArduCopter flies vz as a climb rate; 0 holds the altitude)."""
     target_system: int
     target_component: int
     t_s: float
@@ -234,6 +309,7 @@ class VelocitySetpoint:
     vel_east_mps: float
     yaw_rad: float
     reason: str                 # 'goal', 'avoid', 'escape', 'arrived', 'hold: ...'
+    vel_down_mps: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -296,11 +372,11 @@ def gcs_heartbeat() -> mavlink.MAVLink_heartbeat_message:
 
 
 def set_position_target(sp: VelocitySetpoint) -> mavlink.MAVLink_set_position_target_local_ned_message:
-    """SET_POSITION_TARGET_LOCAL_NED, MAV_FRAME_LOCAL_NED, velocity + yaw (vz = 0: hold height)."""
+    """SET_POSITION_TARGET_LOCAL_NED, MAV_FRAME_LOCAL_NED, velocity (vx, vy, vz) + yaw."""
     return mavlink.MAVLink_set_position_target_local_ned_message(
         ms_of(sp.t_s), sp.target_system, sp.target_component, mavlink.MAV_FRAME_LOCAL_NED,
-        VELOCITY_YAW_TYPE_MASK, 0.0, 0.0, 0.0, sp.vel_north_mps, sp.vel_east_mps, 0.0,
-        0.0, 0.0, 0.0, sp.yaw_rad, 0.0)
+        VELOCITY_YAW_TYPE_MASK, 0.0, 0.0, 0.0, sp.vel_north_mps, sp.vel_east_mps,
+        sp.vel_down_mps, 0.0, 0.0, 0.0, sp.yaw_rad, 0.0)
 
 
 _FLOAT32 = struct.Struct("<f")
@@ -315,8 +391,8 @@ def setpoint_key_of(sp: VelocitySetpoint) -> tuple:
     """``setpoint_key`` of the message ``set_position_target(sp)`` once sent and parsed, without
     packing it (replay compares thousands of them)."""
     return (ms_of(sp.t_s), sp.target_system, sp.target_component, mavlink.MAV_FRAME_LOCAL_NED,
-            VELOCITY_YAW_TYPE_MASK, float32(sp.vel_north_mps), float32(sp.vel_east_mps), 0.0,
-            float32(sp.yaw_rad))
+            VELOCITY_YAW_TYPE_MASK, float32(sp.vel_north_mps), float32(sp.vel_east_mps),
+            float32(sp.vel_down_mps), float32(sp.yaw_rad))
 
 
 def setpoint_key(msg) -> tuple:
@@ -371,6 +447,22 @@ def set_message_interval(target_system: int, target_component: int, msg_id: int,
         float(msg_id), 1e6 / rate_hz, 0, 0, 0, 0, 0)
 
 
+def request_message(target_system: int, target_component: int,
+                    msg_id: int) -> mavlink.MAVLink_command_long_message:
+    """MAV_CMD_REQUEST_MESSAGE: send one message now (HOME_POSITION, GPS_GLOBAL_ORIGIN)."""
+    return mavlink.MAVLink_command_long_message(
+        target_system, target_component, mavlink.MAV_CMD_REQUEST_MESSAGE, 0, float(msg_id),
+        0, 0, 0, 0, 0, 0)
+
+
+def takeoff(target_system: int, target_component: int,
+            alt_m: float) -> mavlink.MAVLink_command_long_message:
+    """MAV_CMD_NAV_TAKEOFF: param7 = altitude above home in metres (ArduCopter)."""
+    return mavlink.MAVLink_command_long_message(
+        target_system, target_component, mavlink.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, 0, 0, 0,
+        float(alt_m))
+
+
 def is_set_message_interval_ack(ack: CommandAck) -> bool:
     return ack.command == mavlink.MAV_CMD_SET_MESSAGE_INTERVAL
 
@@ -397,9 +489,10 @@ def arm(target_system: int, target_component: int,
 
 
 def is_ack_for(ack: CommandAck, command_name: str) -> bool:
-    """True if the ack answers the named command ('set_mode' or 'arm')."""
+    """True if the ack answers the named command ('set_mode', 'arm' or 'takeoff')."""
     wanted = {"set_mode": mavlink.MAV_CMD_DO_SET_MODE,
-              "arm": mavlink.MAV_CMD_COMPONENT_ARM_DISARM}[command_name]
+              "arm": mavlink.MAV_CMD_COMPONENT_ARM_DISARM,
+              "takeoff": mavlink.MAV_CMD_NAV_TAKEOFF}[command_name]
     return ack.command == wanted
 
 

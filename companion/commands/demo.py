@@ -8,6 +8,7 @@ import tempfile
 import time
 from pathlib import Path
 
+from companion.commands.autopilot_demo import add_autopilot_arguments, run_autopilot
 from companion.commands.run import _first_leaf
 from companion.config import load_scenario
 from companion.errors import CompanionError
@@ -39,6 +40,7 @@ def add_parser(sub) -> None:
     p.add_argument("--tlog", metavar="PATH", help="the companion records its traffic here")
     p.add_argument("--keep", metavar="DIR", help="keep the work files (truth log, report, "
                    "children's stderr) in DIR instead of a temporary directory")
+    add_autopilot_arguments(p)
     p.set_defaults(handler=run)
 
 
@@ -50,6 +52,8 @@ def run(args: argparse.Namespace) -> int:
         raise CompanionError(f"--drop-rate: expected a fraction in [0, 1), got {args.drop_rate}")
     scenario_path = resolve_config(args.scenario)
     scenario = load_scenario(scenario_path)
+    if args.autopilot:
+        return run_autopilot(args, scenario_path, scenario)
     tlog = Path(args.tlog).resolve() if args.tlog else None
     started = time.monotonic()
     with tempfile.TemporaryDirectory(prefix="companion-demo-") as tmp:

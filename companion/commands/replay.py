@@ -24,7 +24,8 @@ def add_parser(sub) -> None:
     p.add_argument("tlog", metavar="FILE.tlog")
     p.add_argument("--config", help="companion settings (default: FILE.config.yaml written "
                    f"beside the tlog by `companion run`, else {DEFAULT_CONFIG})")
-    p.add_argument("--goal", metavar="NORTH,EAST[,RADIUS]", help="override the config's goal")
+    p.add_argument("--goal", metavar="NORTH,EAST[,RADIUS] | geo:LAT,LON[,RADIUS]",
+                   help="override the config's goal")
     p.add_argument("--sysid", type=int, help="the vehicle's system id (default: the first "
                    "autopilot heartbeat)")
     p.add_argument("--json", metavar="PATH", help="everything, with the comparison, as JSON")

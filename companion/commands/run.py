@@ -26,8 +26,10 @@ def add_parser(sub) -> None:
                    help="udpin:HOST:PORT, udpout:HOST:PORT, tcp:HOST:PORT, tcpin:HOST:PORT or "
                         "/dev/ttyX:BAUD")
     p.add_argument("--config", default=DEFAULT_CONFIG, help=f"YAML settings (default {DEFAULT_CONFIG})")
-    p.add_argument("--goal", metavar="NORTH,EAST[,RADIUS]",
-                   help="goal in LOCAL_NED metres (overrides the config's goal)")
+    p.add_argument("--goal", metavar="NORTH,EAST[,RADIUS] | geo:LAT,LON[,RADIUS]",
+                   help="goal in LOCAL_NED metres from the EKF origin, or as latitude,longitude in "
+                        "degrees after 'geo:' (converted with the vehicle's EKF origin); "
+                        "overrides the config's goal")
     p.add_argument("--tlog", metavar="PATH",
                    help="record every message received and sent (PATH.config.yaml gets the config)")
     p.add_argument("--report", metavar="PATH",
@@ -36,21 +38,31 @@ def add_parser(sub) -> None:
     p.set_defaults(handler=run)
 
 
+GEO_PREFIX = "geo:"
+
+
 def parse_goal(text: str) -> GoalConfig:
-    """NORTH,EAST[,RADIUS] in metres; every problem is a ConfigError naming --goal."""
+    """'NORTH,EAST[,RADIUS]' (metres) or 'geo:LAT,LON[,RADIUS]' (degrees, RFC 5870's form)."""
+    geographic = text.strip().lower().startswith(GEO_PREFIX)
+    body = text.strip()[len(GEO_PREFIX):] if geographic else text
+    form = "geo:LAT,LON or geo:LAT,LON,RADIUS (degrees, metres)" if geographic else \
+        "NORTH,EAST or NORTH,EAST,RADIUS in metres (or geo:LAT,LON)"
     try:
-        values = [float(v) for v in text.split(",")]
+        values = [float(v) for v in body.split(",")]
     except ValueError:
         values = []
     if len(values) not in (2, 3):
-        raise ConfigError(f"--goal: expected NORTH,EAST or NORTH,EAST,RADIUS in metres, got {text!r}")
+        raise ConfigError(f"--goal: expected {form}, got {text!r}")
     if not all(math.isfinite(v) for v in values):
         raise ConfigError(f"--goal: expected finite numbers, got {text!r}")
     if any(abs(v) > MAX_MAGNITUDE for v in values):
-        raise ConfigError(f"--goal: expected metres of sane magnitude (|value| <= "
+        raise ConfigError(f"--goal: expected values of sane magnitude (|value| <= "
                           f"{MAX_MAGNITUDE:g}), got {text!r}")
+    radius = {"radius_m": values[2]} if len(values) == 3 else {}
     try:
-        return GoalConfig(*values)
+        if geographic:
+            return GoalConfig(lat_deg=values[0], lon_deg=values[1], **radius)
+        return GoalConfig(north_m=values[0], east_m=values[1], **radius)
     except FieldError as exc:
         raise ConfigError(f"--goal: {exc.key}: {exc.problem}") from None
 
@@ -61,7 +73,8 @@ def effective_config(args: argparse.Namespace) -> CompanionConfig:
     if args.goal:
         config = dataclasses.replace(config, goal=parse_goal(args.goal))
     if config.goal is None:
-        raise ConfigError(f"{args.config}: goal: not set; give --goal NORTH,EAST or a goal: section")
+        raise ConfigError(f"{args.config}: goal: not set; give --goal NORTH,EAST (or "
+                          "--goal geo:LAT,LON) or a goal: section")
     if getattr(args, "sysid", None) is not None:
         config = dataclasses.replace(config, link=dataclasses.replace(
             config.link, vehicle_system_id=args.sysid))

@@ -25,6 +25,7 @@ from companion.config import config_to_dict, load_config  # noqa: E402
 REPO = Path(__file__).resolve().parents[2]
 PAPER = REPO / "config" / "scenarios" / "paper.yaml"
 GUIDED, LOITER = 4, 5
+TAKEOFF_ALT_M = 10.0
 
 
 def wait_until(condition: Callable[[], object], timeout_s: float, what: str, poll_s: float = 0.05):
@@ -122,6 +123,16 @@ class GroundStation:
 
     def arm(self) -> None:
         self.command(mavutil.mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1)
+
+    def takeoff(self, alt_m: float = TAKEOFF_ALT_M) -> None:
+        """NAV_TAKEOFF (param7: metres above home); ArduCopter climbs in GUIDED."""
+        self.command(mavutil.mavlink.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, 0, 0, alt_m)
+
+    def fly_from_the_ground(self, alt_m: float = TAKEOFF_ALT_M) -> None:
+        """The docs' workflow: GUIDED, arm, NAV_TAKEOFF; the companion commands once airborne."""
+        self.set_mode(GUIDED)
+        self.arm()
+        self.takeoff(alt_m)
 
     def close(self) -> None:
         self.conn.close()

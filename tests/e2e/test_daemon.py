@@ -8,7 +8,7 @@ import yaml
 from pymavlink import mavutil
 
 from companion.adapters.tlog import TlogReader
-from tests.e2e.support import (GUIDED, LOITER, PAPER, GroundStation, UdpRelay, companion_setpoints,
+from tests.e2e.support import (LOITER, PAPER, GroundStation, UdpRelay, companion_setpoints,
                                read_tlog, start_companion, start_stub, wait_until, write_config)
 
 SPEEDUP = "10"
@@ -39,8 +39,7 @@ def flight(tmp_path, long_scenario):
                                     "--tlog", str(tlog))
         processes.append(companion)
         gcs = GroundStation(tcp_port)
-        gcs.set_mode(GUIDED)
-        gcs.arm()
+        gcs.fly_from_the_ground()
         wait_until(lambda: len(companion_setpoints(read_tlog(tlog))) >= 20, 15.0,
                    "setpoints from the companion")
         yield stub, companion, gcs, tlog
@@ -100,8 +99,7 @@ def test_link_cut_stops_commanding_and_the_daemon_resyncs(tmp_path, long_scenari
                                 "--tlog", str(tlog))
     try:
         gcs = GroundStation(tcp_port)
-        gcs.set_mode(GUIDED)
-        gcs.arm()
+        gcs.fly_from_the_ground()
         wait_until(lambda: len(companion_setpoints(read_tlog(tlog))) >= 10, 15.0, "setpoints")
         relay.cut = True
         wait_until(lambda: "no vehicle heartbeat" in companion.stderr(), 5.0,

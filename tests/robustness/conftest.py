@@ -7,7 +7,7 @@ from collections import Counter
 import pytest
 
 from companion.adapters import codec
-from tests.e2e.support import (GUIDED, GroundStation, companion_setpoints, read_tlog,
+from tests.e2e.support import (GroundStation, companion_setpoints, read_tlog,
                                start_companion, start_stub, wait_until, write_config)
 from tests.robustness.support import Recording, fresh_pipeline
 
@@ -48,8 +48,7 @@ def recording(tmp_path_factory) -> Recording:
         daemon = start_companion(tmp, f"udpout:127.0.0.1:{udp_port}", config, "--tlog", str(tlog))
         processes.append(daemon)
         gcs = GroundStation(tcp_port)
-        gcs.set_mode(GUIDED)
-        gcs.arm()
+        gcs.fly_from_the_ground()
         # 15 s of flight at 10 Hz: past the start, into the first obstacles
         wait_until(lambda: len(companion_setpoints(read_tlog(tlog))) >= 150, 30.0,
                    "150 setpoints from the companion")

@@ -34,6 +34,7 @@ class Feed:
         self.outputs = []
         self.armed, self.mode, self.steps = True, GUIDED, 0
         self.camera_alive = True
+        self.landed_state = codec.LANDED_STATE_IN_AIR
 
     def send(self, event, link_step_s=0.0):
         self.link_s += link_step_s
@@ -54,9 +55,11 @@ class Feed:
         if self.camera_alive and self.steps % 10 == 0:
             out += self.send(codec.ObstacleFrame(self.sysid, 100, self.t_s, ()))  # empty frame
         out += self.send(codec.Attitude(self.sysid, 1, self.t_s, yaw_rad, 0.0), 0.05)
+        if self.steps % 10 == 1:                  # EXTENDED_SYS_STATE: flying (companion asks)
+            out += self.send(codec.LandedState(self.sysid, 1, self.landed_state, 0))
         out += self.send(codec.LocalPosition(self.sysid, 1, self.t_s, self.north_m, 0.0,
                                              speed_mps * math.cos(yaw_rad),
-                                             speed_mps * math.sin(yaw_rad)), 0.05)
+                                             speed_mps * math.sin(yaw_rad), -10.0, 0.0), 0.05)
         return out
 
     def camera(self, observations, compid=100, sysid=None):

@@ -133,11 +133,19 @@ def send_velocity(conn, vn: float, ve: float, yaw: float = 0.0, mask: int = 0x09
                                                 0, 0, 0, yaw, 0)
 
 
-def arm_guided(conn) -> None:
+def arm_guided(conn, takeoff_alt_m: float | None = 10.0) -> None:
+    """GUIDED, arm and (unless None) NAV_TAKEOFF, waiting until the altitude is reached: an
+    ArduCopter ignores velocity targets on the ground (and disarms after DISARM_DELAY)."""
     ack = command(conn, mavlink.MAV_CMD_DO_SET_MODE, mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, 4)
     assert ack is not None and ack.result == mavlink.MAV_RESULT_ACCEPTED
     ack = command(conn, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1)
     assert ack is not None and ack.result == mavlink.MAV_RESULT_ACCEPTED
+    if takeoff_alt_m is None:
+        return
+    ack = command(conn, mavlink.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, 0, 0, takeoff_alt_m)
+    assert ack is not None and ack.result == mavlink.MAV_RESULT_ACCEPTED
+    assert wait_for(conn, lambda m: m.z <= -(takeoff_alt_m - 0.3), 60.0,
+                    "LOCAL_POSITION_NED") is not None, "takeoff did not reach its altitude"
 
 
 def read_truth_log(path: Path) -> list[dict]:

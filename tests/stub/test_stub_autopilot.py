@@ -48,9 +48,20 @@ class Rig:
         assert self.cmd(mavlink.MAV_CMD_DO_SET_MODE, 1, 4)[0] == mavlink.MAV_RESULT_ACCEPTED
         assert self.cmd(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1)[0] == mavlink.MAV_RESULT_ACCEPTED
 
+    def airborne(self, alt_m=10.0):
+        """GUIDED, armed, NAV_TAKEOFF and climbed: the docs' workflow."""
+        self.guided_armed()
+        assert self.cmd(mavlink.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, 0, 0, alt_m)[0] == \
+            mavlink.MAV_RESULT_ACCEPTED
+        for _ in range(300):
+            self.run(0.1)
+            if self.ap.flight.takeoff.complete:
+                return
+        raise AssertionError("takeoff did not complete")
+
     def run(self, seconds):
         for _ in range(int(round(seconds / self.sim.dt_s))):
-            self.sim.step(self.ap.demand(self.sim.t_s), self.ap.armed)
+            self.sim.step(self.ap.demand(self.sim.t_s), self.ap.armed, self.ap.climb_limits())
             self.ap.after_step(self.sim.t_s)
 
 
@@ -69,22 +80,25 @@ def test_mode_and_arming_acks_and_heartbeat():
     assert rig.cmd(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1)[0] == mavlink.MAV_RESULT_ACCEPTED
     hb = rig.ap.periodic(1.0)[0][1]
     assert hb.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED and hb.custom_mode == 4
-    assert hb.system_status == mavlink.MAV_STATE_ACTIVE
+    assert hb.system_status == mavlink.MAV_STATE_STANDBY    # armed but landed, as ArduCopter
 
 
 def test_arming_refused_in_land_and_disarm_refused_in_flight():
     rig = Rig()
     rig.cmd(mavlink.MAV_CMD_DO_SET_MODE, 1, 9)
     assert rig.cmd(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1)[0] == mavlink.MAV_RESULT_FAILED
-    rig.guided_armed()
+    rig.airborne()
     rig.target(vx=5.0)
     rig.run(2.0)
     assert rig.cmd(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 0)[0] == mavlink.MAV_RESULT_FAILED
     assert rig.ap.armed
-    # LAND stops the vehicle, then it disarms
+    # LAND stops, descends (WPNAV_SPEED_DN above LAND_ALT_LOW, LAND_SPEED below), disarms landed
     assert rig.cmd(mavlink.MAV_CMD_NAV_LAND)[0] == mavlink.MAV_RESULT_ACCEPTED
-    rig.run(3.0)
-    assert rig.sim.truth.speed_mps == 0.0 and not rig.ap.armed
+    rig.run(2.0)
+    assert rig.ap.flight.landed_state(True) == 4           # MAV_LANDED_STATE_LANDING
+    assert -rig.sim.truth.vel_up_mps == pytest.approx(0.5, abs=0.01)
+    rig.run(22.0)
+    assert rig.sim.truth.up_m == 0.0 and rig.sim.truth.speed_mps == 0.0 and not rig.ap.armed
 
 
 def test_targets_ignored_unless_guided_and_armed_and_for_us():
@@ -97,17 +111,15 @@ def test_targets_ignored_unless_guided_and_armed_and_for_us():
     assert rig.ap.target.kind == "hold"
     rig.target(vx=5.0)
     assert rig.ap.target.kind == "velocity"
-    rig.cmd(mavlink.MAV_CMD_DO_SET_MODE, 1, 5)  # LOITER drops the target and stops
+    rig.cmd(mavlink.MAV_CMD_DO_SET_MODE, 1, 5)  # LOITER drops the target
     assert rig.ap.target is None
-    rig.run(3.0)
-    assert rig.sim.truth.speed_mps == 0.0
     rig.target(vx=5.0)
     assert rig.ap.target is None
 
 
 def test_velocity_flight_and_guided_timeout_from_param():
     rig = Rig()
-    rig.guided_armed()
+    rig.airborne()
     out = rig.send(mavlink.MAVLink_param_set_message(1, 1, b"GUID_TIMEOUT", 1.0, 9))
     assert out[0].param_id == "GUID_TIMEOUT" and out[0].param_value == 1.0
     rig.target(vx=5.0)
@@ -127,7 +139,7 @@ def test_velocity_flight_and_guided_timeout_from_param():
 ])
 def test_invalid_target_stops_the_vehicle(kwargs):
     rig = Rig()
-    rig.guided_armed()
+    rig.airborne()
     rig.target(vx=5.0)
     rig.run(3.0)
     assert rig.sim.truth.speed_mps == pytest.approx(5.0)
@@ -135,14 +147,15 @@ def test_invalid_target_stops_the_vehicle(kwargs):
     assert rig.ap.target.kind == "hold"
     rig.run(2.1)
     assert rig.sim.truth.speed_mps == 0.0
+    assert rig.sim.truth.up_m == pytest.approx(10.0, abs=0.3)     # the hold keeps the altitude
 
 
 def test_body_frame_velocity_is_rotated_by_heading():
     rig = Rig()
-    rig.guided_armed()
-    rig.target(vx=0.0, vy=5.0)              # east in LOCAL_NED
+    rig.airborne()
+    rig.target(vx=0.0, vy=5.0, mask=0x0DC7)  # east in LOCAL_NED, no yaw: it faces the velocity
     rig.run(2.5)
-    rig.target(vx=0.0, vy=5.0)              # refreshed before GUID_TIMEOUT
+    rig.target(vx=0.0, vy=5.0, mask=0x0DC7)  # refreshed before GUID_TIMEOUT
     rig.run(2.5)
     assert rig.sim.truth.yaw_rad == pytest.approx(math.pi / 2, abs=0.02)
     rig.target(frame=mavlink.MAV_FRAME_BODY_OFFSET_NED, vx=0.0, vy=5.0)   # body right = south
@@ -152,13 +165,15 @@ def test_body_frame_velocity_is_rotated_by_heading():
 
 def test_position_target_flies_there_and_stops_and_ignores_timeout():
     rig = Rig()
-    rig.guided_armed()
-    rig.target(mask=0x0FF8, x=40.0, y=10.0)
+    rig.airborne()
+    rig.send(mavlink.MAVLink_set_position_target_local_ned_message(
+        0, 1, 1, 1, 0x0FF8, 40.0, 10.0, -15.0, 0, 0, 0, 0, 0, 0, 0, 0))
     assert rig.ap.target.kind == "position"
     rig.run(20.0)
     odom = rig.sim.odometry
     assert math.hypot(odom.north_m - 40.0, odom.east_m - 10.0) < 0.5
-    assert rig.sim.truth.speed_mps == 0.0
+    assert rig.sim.truth.speed_mps < 0.05
+    assert rig.sim.truth.up_m == pytest.approx(15.0, abs=0.1)     # z = -15: 15 m up
     rig.target(frame=mavlink.MAV_FRAME_LOCAL_OFFSET_NED, mask=0x0FF8, x=-10.0, y=0.0)
     assert rig.ap.target.north_m == pytest.approx(odom.north_m - 10.0)
 

@@ -104,12 +104,16 @@ def test_trajectory_follows_model_and_nan_and_frame_stop(tmp_path):
     rows = read_truth_log(log_path)
     dt = 0.1
     for a, b in zip(rows, rows[1:]):
-        # the paper's model, step by step
-        assert b["north_m"] == pytest.approx(a["north_m"] + b["speed_mps"] * dt * math.cos(b["yaw_rad"]), abs=1e-9)
-        assert b["east_m"] == pytest.approx(a["east_m"] + b["speed_mps"] * dt * math.sin(b["yaw_rad"]), abs=1e-9)
+        # the multicopter model, step by step: the velocity vector moves the vehicle
+        assert b["north_m"] == pytest.approx(a["north_m"] + b["vel_north_mps"] * dt, abs=1e-9)
+        assert b["east_m"] == pytest.approx(a["east_m"] + b["vel_east_mps"] * dt, abs=1e-9)
+        assert b["up_m"] == pytest.approx(max(0.0, a["up_m"] + b["vel_up_mps"] * dt), abs=1e-9)
         dyaw = math.remainder(b["yaw_rad"] - a["yaw_rad"], 2 * math.pi)
         assert abs(dyaw) <= math.radians(30.0) * dt + 1e-9            # turn-rate limit
-        assert abs(b["speed_mps"] - a["speed_mps"]) <= 2.5 * dt + 1e-9   # acceleration limit
+        dv = math.hypot(b["vel_north_mps"] - a["vel_north_mps"], b["vel_east_mps"] - a["vel_east_mps"])
+        assert dv <= 2.5 * dt + 1e-9                                  # acceleration limit
+        if b["landed"]:
+            assert b["speed_mps"] == 0.0 and b["up_m"] < 0.5      # no flight on the ground
     at = {round(r["t_s"] * MS): r for r in rows}
     north_leg = at[round(north_end / 100) * 100]
     assert north_leg["speed_mps"] == pytest.approx(5.0) and north_leg["yaw_rad"] == pytest.approx(0.0, abs=0.01)

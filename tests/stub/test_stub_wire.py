@@ -60,22 +60,31 @@ def test_components_have_their_own_sequence_numbers():
 def test_every_emitted_message_packs_and_angles_stay_in_range():
     enc = mavlink.MAVLink(None, srcSystem=1, srcComponent=1)
     dec = mavlink.MAVLink(None)
-    odom = Odometry(1.0, 2.0, math.pi, -0.3, 0.1, 0.3, -0.0)
+    odom = Odometry(1.0, 2.0, math.pi, -0.3, 0.1, 0.3, -0.0, up_m=10.0, vel_up_mps=0.5)
     origin = SC.world.origin
     dets = camera.observe(0.0, 0.0, 0.0, [(1, 20.0, 0.0, 2.0)], SC.sensor,
                           np.random.default_rng(0))
-    msgs = [telemetry.heartbeat_autopilot(4, True), telemetry.sys_status(),
-            telemetry.system_time(1.0, 1.7e9), telemetry.attitude(1.0, odom),
-            telemetry.local_position_ned(1.0, odom), telemetry.global_position_int(1.0, odom, origin),
-            telemetry.home_position(origin, 20.0, 0.0, 1.0), telemetry.autopilot_version(),
+    msgs = [telemetry.heartbeat_autopilot(4, True), telemetry.sys_status(True, True, 12600, 150, 99),
+            telemetry.system_time(1.0, 1.7e9), telemetry.attitude(1.0, odom, odom.yaw_rad),
+            telemetry.local_position_ned(1.0, odom, 1.0, 2.0),
+            telemetry.global_position_int(1.0, odom, 1.0, 2.0, origin, 0.0),
+            telemetry.home_position(origin, 20.0, 0.0, 0.0, 1.0), telemetry.autopilot_version(),
+            telemetry.gps_raw_int(1.0, True, -35.0, 149.0, 594.0, 1.2, 5.0, 0.3),
+            telemetry.gps_raw_int(1.0, False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0),
+            telemetry.ekf_status_report(True), telemetry.battery_status(12600, 150, 10, 99),
+            telemetry.extended_sys_state(2, 0), telemetry.gps_global_origin(origin, 1.0),
             telemetry.obstacle_distance_3d(dets[0], 1.0, SC.sensor),
             telemetry.obstacle_distance(dets, 1.0, SC.sensor)]
     for m in msgs:
         out = dec.decode(bytearray(m.pack(enc)))
         assert out.get_type() == m.get_type()
-    att = dec.decode(bytearray(telemetry.attitude(1.0, odom).pack(enc)))
+    att = dec.decode(bytearray(telemetry.attitude(1.0, odom, odom.yaw_rad).pack(enc)))
     assert -math.pi < att.yaw <= math.pi
-    gpi = dec.decode(bytearray(telemetry.global_position_int(1.0, odom, origin).pack(enc)))
-    assert gpi.hdg == 18000 and gpi.relative_alt == 0 and gpi.vx == 30
+    gpi = dec.decode(bytearray(telemetry.global_position_int(1.0, odom, 1.0, 2.0, origin,
+                                                             0.0).pack(enc)))
+    assert gpi.hdg == 18000 and gpi.relative_alt == 10000 and gpi.vx == 30 and gpi.vz == -50
+    assert gpi.alt == round((origin.alt_m + 10.0) * 1000)
+    lpn = dec.decode(bytearray(telemetry.local_position_ned(1.0, odom, 1.0, 2.0).pack(enc)))
+    assert (lpn.z, lpn.vz) == (-10.0, -0.5)
     od = dec.decode(bytearray(telemetry.obstacle_distance(dets, 1.0, SC.sensor).pack(enc)))
     assert len(od.distances) == 72 and abs(min(od.distances) - 1800) <= 50   # noisy range - radius
