@@ -56,7 +56,7 @@ def parse_goal(text: str) -> GoalConfig:
     if not all(math.isfinite(v) for v in values):
         raise ConfigError(f"--goal: expected finite numbers, got {text!r}")
     if any(abs(v) > MAX_MAGNITUDE for v in values):
-        raise ConfigError(f"--goal: expected values of sane magnitude (|value| <= "
+        raise ConfigError(f"--goal: expected metres of sane magnitude (|value| <= "
                           f"{MAX_MAGNITUDE:g}), got {text!r}")
     radius = {"radius_m": values[2]} if len(values) == 3 else {}
     try:
