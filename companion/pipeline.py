@@ -32,6 +32,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from companion import odometry_intake
 from companion.adapters import codec
 from companion.config import CompanionConfig, GoalConfig
 from companion.core.geometry import wrap_angle
@@ -107,6 +108,9 @@ class Pipeline:
         self._latest_t_s: float | None = None
         self._attitudes: deque[codec.Attitude] = deque(maxlen=ATTITUDE_HISTORY)
         self._held_position: codec.LocalPosition | None = None
+        self._yaw_rate_rad_s = 0.0                  # of the ATTITUDE the last yaw came from
+        self.position_health = odometry_intake.PositionHealth(config.estimator)
+        self.estimator_notices = odometry_intake.EstimatorNotices()
         self._ap_yaw_rad: float | None = None       # autopilot yaw at the last odometry sample
         self._last_decision_t_s: float | None = None
         self._last_pose_out_t_s: float | None = None
@@ -145,6 +149,8 @@ class Pipeline:
                 self._pair_position(t_link_s, event, out)
         elif isinstance(event, codec.ObstacleFrame):
             self._on_obstacles(t_link_s, event, out)
+        elif isinstance(event, (codec.GpsFix, codec.EkfStatus)) and self._is_vehicle(event):
+            self.position_health.note(event, self._latest_t_s)
         return out
 
     @property
@@ -248,6 +254,7 @@ class Pipeline:
                 if gap > self.config.commanding.max_attitude_age_s:
                     return None
                 rate = att.yaw_rate_rad_s if math.isfinite(att.yaw_rate_rad_s) else 0.0
+                self._yaw_rate_rad_s = rate
                 return wrap_angle(att.yaw_rad + rate * max(gap, 0.0))
         return None
 
@@ -285,7 +292,8 @@ class Pipeline:
             out.append(NavigatorStarted(lpn.t_s))
         nav = self.navigator
         before = nav.t_s
-        reports = nav.on_odometry(lpn.t_s, speed, yaw)
+        reports = odometry_intake.absorb(nav, self.config.estimator, self.position_health, lpn,
+                                         yaw, self._yaw_rate_rad_s)
         if nav.t_s == before and before is not None:
             self._count("odometry_not_newer")
             return
@@ -307,7 +315,8 @@ class Pipeline:
         return Navigator(np.array([north_m, east_m, wrap_angle(yaw_rad)]), pose_cov,
                          est.slam_noise(), est.gates(), self.config.guidance_params(goal.radius_m),
                          np.array([goal.north_m, goal.east_m]),
-                         self.config.avoidance.strategy, self.config.avoidance.union_params())
+                         self.config.avoidance.strategy, self.config.avoidance.union_params(),
+                         est.mover_params(), est.options())
 
     def _maybe_publish_pose(self, t_s: float, out: list[Output]) -> None:
         if self._last_pose_out_t_s is not None and t_s - self._last_pose_out_t_s \
@@ -320,7 +329,8 @@ class Pipeline:
         self._last_pose_out_t_s = t_s
         north_m, east_m, yaw_rad = pose.tolist()
         out.append(codec.PoseEstimate(t_s, north_m, east_m, yaw_rad,
-                                      tuple(map(tuple, cov.tolist())), self.reset_counter))
+                                      tuple(map(tuple, cov.tolist())), self.reset_counter,
+                                      odometry_intake.quality(self.navigator)))
         # Tracked movers, for the ground station to see (docs/messages.md).
         for mover in self.navigator.movers.states(self.navigator.clock_s):
             if np.all(np.isfinite(mover.position_ne_m)):
@@ -377,6 +387,7 @@ class Pipeline:
         command, change = nav.decide(t_s)
         if change is not None:
             self._on_urgency(change, out)
+        out.extend(self.estimator_notices.after_decision(nav, command))
         if command.mode == "arrived" and self.arrival_t_s is None:
             self.arrival_t_s = t_s
             log.info("arrived at the goal at %.1f s", t_s)
@@ -484,4 +495,5 @@ def snapshot(pipeline: Pipeline) -> dict:
         "urgency_events": [asdict(r) for r in pipeline.urgency],
         "counters": dict(pipeline.counters),
         "rejected_by_estimator": dict(nav.rejected) if nav is not None else {},
+        **odometry_intake.snapshot(nav),
     }

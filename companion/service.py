@@ -41,7 +41,9 @@ WATCHDOG_INTERVAL_S = 0.2
 REPORT_TRACK_ROWS = 36_000
 PLACEHOLDER_SYSTEM_ID = 1        # our system id until the vehicle's is known (if not configured)
 STREAMS = ((codec.MSG_ID_ATTITUDE, "attitude_rate_hz"),
-           (codec.MSG_ID_LOCAL_POSITION_NED, "local_position_rate_hz"))
+           (codec.MSG_ID_LOCAL_POSITION_NED, "local_position_rate_hz"),
+           (codec.MSG_ID_GPS_RAW_INT, "gps_raw_rate_hz"),                # position fusion 'auto'
+           (codec.MSG_ID_EKF_STATUS_REPORT, "ekf_status_rate_hz"))
 
 
 def sidecar_config_path(tlog_path: str | Path) -> Path:
