@@ -387,6 +387,9 @@ class Scenario:
             yaw_rate_sigma_deg_s=max(noise.yaw_rate_sigma_deg_s, 1e-6),
             yaw_sigma_deg=max(noise.yaw_sigma_deg, 1e-6),
             position_fusion="auto" if copter else "off",
+            # The unicycle's 2-sigma radius reaches 2.4 m at the end of 300 m legs (dense and
+            # moving worlds, measured): 3 m keeps the paper's figures; the multicopter's 2 m.
+            arrival_tolerance_m=2.0 if copter else 3.0,
             position_sigma_m=max(math.hypot(noise.position_sigma_m, noise.position_bias_sigma_m),
                                  1e-3))
 

@@ -7,7 +7,8 @@ from companion.__main__ import main
 
 RUN_FIELDS = {"seed", "reached_goal", "time_s", "min_clearance_m", "collided", "final_goal_distance_m",
               "final_position_error_m", "max_position_error_m", "landmark_errors_m", "urgent_events",
-              "path_length_m"}
+              "path_length_m", "arrived", "arrival_uncertain_t_s", "final_pose_2sigma_m",
+              "estimator_state_s", "estimator_state_changes", "position_fixes"}
 
 
 def simulate(tmp_path, *args):
