@@ -227,4 +227,17 @@ def aggregate_summaries(summaries: list[dict], pose_nees: list, safety_distance_
             "steps": int(steps),
         },
         "path_length_m": {"median": float(np.median([s["path_length_m"] for s in summaries]))},
+        "arrivals": arrival_figures(summaries),
+    }
+
+
+def arrival_figures(summaries: list[dict]) -> dict:
+    """How many runs declared arrival, how many held with an uncertain one, and how far from
+    the goal the truth was at the worst declared arrival."""
+    declared = [s for s in summaries if s.get("arrived")]
+    return {
+        "declared": len(declared),
+        "uncertain": sum(1 for s in summaries if s.get("arrival_uncertain_t_s") is not None),
+        "max_true_goal_distance_m": max((s["final_goal_distance_m"] for s in declared),
+                                        default=None),
     }
