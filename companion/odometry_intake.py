@@ -110,11 +110,14 @@ class EstimatorNotices:
     STATUSTEXT limiter rate-limits them; here: one per change)."""
 
     def __init__(self) -> None:
-        self._reported = 0              # health changes already announced
+        self._nav: Navigator | None = None
+        self._reported = 0              # health changes of that navigator already announced
         self._uncertain = False
 
     def after_decision(self, nav: Navigator, command: GuidanceCommand) -> list[codec.Notice]:
         out = []
+        if nav is not self._nav:        # a new estimate (after a reboot): its own history
+            self._nav, self._reported, self._uncertain = nav, 0, False
         changes = nav.health_changes
         for change in changes[self._reported:]:
             if self._reported == 0 and change.state == "ok":

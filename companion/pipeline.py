@@ -13,7 +13,7 @@ heartbeat is fresh enough to command it.
 Rules (docs/messages.md repeats them):
 - The vehicle is the first heartbeat from an autopilot (or the pinned ids). Obstacle reports are
   accepted from the vehicle's system, autopilot or camera component; everything else is ignored.
-- Odometry: one sample per LOCAL_POSITION_NED, speed = hypot(vx, vy), paired with the ATTITUDE
+- Odometry: one sample per LOCAL_POSITION_NED (its use: odometry_intake), paired with the ATTITUDE
   of the same time_boot_ms (the position waits for it until the next position arrives), else
   with the latest earlier ATTITUDE, its yaw carried forward by its yaw rate over the gap (at
   most ``max_attitude_age_s``, else the sample is skipped).

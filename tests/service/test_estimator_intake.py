@@ -130,3 +130,20 @@ def test_an_uncertain_arrival_is_said_once_and_not_declared():
     assert "companion: goal reached" not in texts and not snapshot(feed.p)["arrived"]
     assert math.isclose(
         [o for o in out if isinstance(o, codec.VelocitySetpoint)][-1].vel_north_mps, 0.0)
+
+
+@pytest.mark.parametrize("line, message", [
+    ("  motion_model: velocity_ned", "estimator.motion_model: expected one of paper, velocity_ned, got 'unicycle'"),
+    ("  position_fusion: auto", "estimator.position_fusion: expected one of auto, on, off, got 'unicycle'"),
+])
+def test_estimator_keys_are_checked_with_file_and_key(tmp_path, line, message):
+    from companion.config import load_config
+    from companion.errors import ConfigError
+    text = open("config/companion.yaml").read()
+    key = line.split(":")[0]
+    assert line in text
+    path = tmp_path / "c.yaml"
+    path.write_text(text.replace(line, f"{key}: unicycle"))
+    with pytest.raises(ConfigError) as info:
+        load_config(path)
+    assert str(info.value) == f"{path}: {message}"
