@@ -390,7 +390,10 @@ class Scenario:
             # The unicycle's 2-sigma radius reaches 2.4 m at the end of 300 m legs (dense and
             # moving worlds, measured): 3 m keeps the paper's figures; the multicopter's 2 m.
             arrival_tolerance_m=2.0 if copter else 3.0,
-            position_sigma_m=max(math.hypot(noise.position_sigma_m, noise.position_bias_sigma_m),
+            # A fix carries about period/tau of the bias's information (copter.yaml says more).
+            position_sigma_m=max(math.sqrt(noise.position_sigma_m ** 2 + noise.position_bias_sigma_m
+                                           ** 2 * max(1.0, noise.position_bias_tau_s
+                                           / EstimatorConfig.position_period_s)),
                                  1e-3))
 
     def guidance_params(self) -> GuidanceParams:
