@@ -15,7 +15,7 @@ from companion.core.consistency import MonitorParams
 from companion.core.ekf_slam import AssociationGates, SlamNoise, VelocityNoise
 from companion.core.guidance import GuidanceParams
 from companion.core.movers import MoverParams
-from companion.core.navigator import EstimatorOptions
+from companion.core.estimator_options import EstimatorOptions
 from companion.core.union import UnionParams
 from companion.errors import ConfigError
 

@@ -81,7 +81,7 @@ class TruthWorld:
         """Advance one vehicle.dt_s as ArduCopter in GUIDED with the velocity + yaw mask: the
         velocity moves toward the command (acceleration-limited as a vector), the yaw turns
         toward the commanded yaw at max_turn_rate on its own, so course and heading differ."""
-        vehicle, noise, rng = self.scenario.vehicle, self.scenario.noise, self.rng
+        vehicle = self.scenario.vehicle
         dt = vehicle.dt_s
         dv = np.asarray(vel_cmd_ne_mps, dtype=float) - self.vel_ne_mps
         dv_norm = float(np.hypot(*dv))

@@ -7,13 +7,13 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 
-from companion.core.consistency import Consistency, ConsistencyMonitor, MonitorParams, chi2_quantile
-from companion.core.ekf_slam import (AssociationGates, EkfSlam, Observation, SlamNoise, UpdateReport,
-                                     VelocityNoise, chi2_2dof_quantile)
+from companion.core.consistency import Consistency, ConsistencyMonitor
+from companion.core.ekf_slam import AssociationGates, EkfSlam, Observation, SlamNoise, UpdateReport
+from companion.core.estimator_options import EstimatorOptions, moderate
 from companion.core.geometry import move, move_velocity, place, wrap_angle
 from companion.core.guidance import GuidanceCommand, GuidanceParams, guide_apf, guide_cone
 from companion.core.movers import MoverParams, MoverTracker, apparent_velocity, world_measurement
@@ -36,43 +36,6 @@ class UrgencyChange:
     landmark_index: int | None
     obstacle_id: int | None
     time_to_go_s: float | None
-
-
-MOTION_MODELS = ("paper", "velocity_ned")
-REACTIONS = ("none", "slow", "hold")
-
-
-@dataclass(frozen=True)
-class EstimatorOptions:
-    """How the navigator estimates and how it reacts to its own health.
-
-    motion_model: 'paper' (the unicycle: speed along the yaw, the yaw difference as the heading
-    change) or 'velocity_ned' (a multicopter: the autopilot's NED velocity, the yaw a state of its
-    own driven by the yaw rate and corrected by the autopilot's yaw, ``yaw_sigma_rad``).
-    Position fixes (``correct_position``) are fused at most once per ``position_period_s``.
-    A landmark corrects the pose only once established: past probation and seen
-    ``established_sightings`` times. Arrival needs the pose's 2-sigma radius within
-    ``arrival_tolerance_m``. Reactions to 'degraded' / 'lost': 'none', 'slow' (speed times
-    ``slow_factor``) or 'hold'.
-    """
-    motion_model: str = "paper"
-    velocity_noise: VelocityNoise = VelocityNoise(0.1, 0.1, math.radians(0.5))
-    yaw_sigma_rad: float = math.radians(2.0)
-    yaw_gate_nis: float = chi2_quantile(0.99999, 1)
-    position_gate_nis: float = chi2_2dof_quantile(0.99999)
-    position_period_s: float = 1.0
-    established_sightings: int = 5
-    arrival_tolerance_m: float = 2.0
-    monitor: MonitorParams = MonitorParams()
-    degraded_reaction: str = "slow"
-    lost_reaction: str = "hold"
-    slow_factor: float = 0.5
-
-    def __post_init__(self) -> None:
-        if self.motion_model not in MOTION_MODELS:
-            raise ValueError(f"unknown motion model {self.motion_model!r}")
-        if self.degraded_reaction not in REACTIONS or self.lost_reaction not in REACTIONS:
-            raise ValueError(f"reactions are one of {REACTIONS}")
 
 
 @dataclass
@@ -493,25 +456,7 @@ class Navigator:
         return health
 
     def _moderate(self, command: GuidanceCommand) -> GuidanceCommand:
-        """Arrival only with the pose known well enough; the configured reaction to bad health.
-
-        'arrival_uncertain': inside the goal radius but the 2-sigma radius exceeds the arrival
-        tolerance: hold there (speed 0) and say so, do not declare arrival.
-        """
-        health = self.assess()
-        options = self.options
-        if command.mode == "arrived":
-            if health.radius_2sigma_m > options.arrival_tolerance_m:
-                return replace(command, mode="arrival_uncertain")
-            return command
-        reaction = {"degraded": options.degraded_reaction,
-                    "lost": options.lost_reaction}.get(health.state, "none")
-        if reaction == "hold":
-            return replace(command, speed_mps=0.0, heading_rad=float(self.slam.mean[2]),
-                           mode=f"hold: estimator {health.state}")
-        if reaction == "slow":
-            return replace(command, speed_mps=command.speed_mps * options.slow_factor)
-        return command
+        return moderate(command, self.assess(), self.options, float(self.slam.mean[2]))
 
     def _key(self, index: int | None, movers: list) -> tuple | None:
         """A stable name for obstacle row ``index``: landmark ids shift as movers leave the map."""
