@@ -147,3 +147,12 @@ def test_estimator_keys_are_checked_with_file_and_key(tmp_path, line, message):
     with pytest.raises(ConfigError) as info:
         load_config(path)
     assert str(info.value) == f"{path}: {message}"
+
+
+def test_a_bare_yaml_off_means_position_fusion_off(tmp_path):
+    """YAML 1.1 reads a bare `off` as false: the key still means the word."""
+    from companion.config import load_config
+    path = tmp_path / "c.yaml"
+    path.write_text(open("config/companion.yaml").read().replace(
+        "  position_fusion: auto", "  position_fusion: off"))
+    assert load_config(path).estimator.position_fusion == "off"
