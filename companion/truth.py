@@ -88,11 +88,11 @@ class TruthWorld:
         max_dv = vehicle.max_accel_mps2 * dt
         if dv_norm > max_dv:
             dv *= max_dv / dv_norm
+        mean_vel = self.vel_ne_mps + 0.5 * dv            # constant acceleration over the step
         self.vel_ne_mps = self.vel_ne_mps + dv
         max_turn = vehicle.max_turn_rate_rad_s * dt
         turn = max(-max_turn, min(max_turn, wrap_angle(yaw_cmd_rad - self.pose[2])))
-        self.pose = np.array([self.pose[0] + self.vel_ne_mps[0] * dt,
-                              self.pose[1] + self.vel_ne_mps[1] * dt,
+        self.pose = np.array([self.pose[0] + mean_vel[0] * dt, self.pose[1] + mean_vel[1] * dt,
                               wrap_angle(self.pose[2] + turn)])
         self.speed_mps = float(np.hypot(*self.vel_ne_mps))
         self.t_s += dt
