@@ -95,6 +95,10 @@ def run_once(scenario: Scenario, seed: int, strategy: str | None = None) -> RunO
     path_m = 0.0
     max_err = 0.0
     arrived = False
+    if copter:                         # the autopilot's first report starts the filter's clock
+        first = truth.copter_odometry(0.0)
+        nav.on_velocity(0.0, first.vel_north_mps, first.vel_east_mps, first.yaw_rad,
+                        first.yaw_rate_rad_s)
     nav.observe(truth.observe())
     for step in range(1, max_steps + 1):
         command, change = nav.decide(truth.t_s)
@@ -115,8 +119,8 @@ def run_once(scenario: Scenario, seed: int, strategy: str | None = None) -> RunO
             course = wrap_angle(reported_yaw + gamma)
             odo = truth.step_copter(command.speed_mps * np.array([math.cos(course),
                                                                   math.sin(course)]), course)
-            nav.predict_velocity(odo.vel_north_mps, odo.vel_east_mps, odo.yaw_rate_rad_s, dt)
-            nav.correct_yaw(odo.yaw_rad)
+            nav.on_velocity(truth.t_s, odo.vel_north_mps, odo.vel_east_mps, odo.yaw_rad,
+                            odo.yaw_rate_rad_s)
             reported_yaw = odo.yaw_rad
             if fuse:
                 nav.correct_position(*odo.position_ne_m, fix_sigma_m)

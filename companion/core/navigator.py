@@ -64,7 +64,7 @@ class Navigator:
         self.health_changes: list[Consistency] = []     # every change of state, in order
         self.position_fixes = {"fused": 0, "refused": 0}
         self._last_fix_s: float | None = None
-        self._last_velocity: tuple[float, float, float] | None = None   # at the last sample
+        self._last_velocity: tuple[float, float] | None = None   # NED, at the last sample
         self._crab_mps: deque[tuple[float, float]] = deque()   # paper model: (t, unmodelled speed)
         self.params = params
         self.goal = np.asarray(goal, dtype=float)
@@ -148,8 +148,9 @@ class Navigator:
                     yaw_rate_rad_s: float) -> list[UpdateReport]:
         """The multicopter's odometry sample: the NED velocity and yaw rate at ``t_s`` and the
         autopilot's yaw then (a measurement of the yaw state). The interval since the last sample
-        is flown at the mean of its two velocities and yaw rates (trapezoidal: the velocity at
-        one end would misplace the vehicle by half a step's speed change at every acceleration).
+        is flown at the mean of its two velocities (trapezoidal: the velocity at one end would
+        misplace the vehicle by half a step's speed change at every acceleration) and turned at
+        the yaw rate of ``t_s`` (whatever lag that has, the yaw measurement takes out).
         Frames inside the interval are observed at their own time, as in :meth:`on_odometry`."""
         values = (t_s, vel_north_mps, vel_east_mps, yaw_rad, yaw_rate_rad_s)
         if not all(math.isfinite(v) for v in values):
@@ -157,18 +158,17 @@ class Navigator:
             return []
         if self.t_s is None:
             self.t_s, self._yaw_rad, self.clock_s = t_s, yaw_rad, t_s
-            self._last_velocity = values[1:3] + values[4:]
+            self._last_velocity = (vel_north_mps, vel_east_mps)
             self.correct_yaw(yaw_rad)
             return self._release()
         dt = t_s - self.t_s
         if dt <= 0.0:
             self._reject("odometry_not_newer")
             return []
-        last_north, last_east, last_rate = self._last_velocity or values[1:3] + values[4:]
-        self._last_velocity = (vel_north_mps, vel_east_mps, yaw_rate_rad_s)
+        last_north, last_east = self._last_velocity or (vel_north_mps, vel_east_mps)
+        self._last_velocity = (vel_north_mps, vel_east_mps)
         vel_north_mps = 0.5 * (vel_north_mps + last_north)
         vel_east_mps = 0.5 * (vel_east_mps + last_east)
-        yaw_rate_rad_s = 0.5 * (yaw_rate_rad_s + last_rate)
         reports: list[UpdateReport] = []
         start = cursor = self.t_s
         while self._pending and self._pending[0][0] < t_s - SAME_TIME_TOLERANCE_S:
