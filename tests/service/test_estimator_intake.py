@@ -156,3 +156,13 @@ def test_a_bare_yaml_off_means_position_fusion_off(tmp_path):
     path.write_text(open("config/companion.yaml").read().replace(
         "  position_fusion: auto", "  position_fusion: off"))
     assert load_config(path).estimator.position_fusion == "off"
+
+
+def test_the_paper_keeps_its_model_and_the_service_defaults_to_the_multicopter():
+    from companion.config import EstimatorConfig, load_config, load_scenario
+    assert load_scenario("config/scenarios/paper.yaml").estimator_config().motion_model == "paper"
+    assert load_scenario("config/scenarios/paper.yaml").estimator_config().position_fusion == "off"
+    assert load_scenario("config/scenarios/copter.yaml").estimator_config().motion_model \
+        == "velocity_ned"
+    assert load_config("config/companion.yaml").estimator.motion_model == "velocity_ned"
+    assert EstimatorConfig(range_sigma_m=0.1, bearing_sigma_deg=0.01).motion_model == "velocity_ned"
