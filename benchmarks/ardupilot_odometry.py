@@ -6,8 +6,8 @@ Starts ArduCopter 4.6 SITL (instance 7, TCP 5830; /work/shared/ardupilot/README.
 ground station: streams, GUIDED, arm, NAV_TAKEOFF to 10 m, then flies a plan of velocity + yaw
 setpoints (the service's type mask): hover, east with the yaw held north (a 90 degree crab), north,
 a diagonal with the yaw off the course, hover. It records every ATTITUDE and LOCAL_POSITION_NED and
-replays them through the service's pipeline (estimate only, position fusion off: GPS-denied) with
-each motion model. The autopilot's own position (SITL's GPS is exact) is the reference.
+replays them through the service's pipeline (estimate only) with each motion model, position
+fusion off (GPS-denied), and the multicopter's with fusion 'auto' (GPS_RAW_INT, EKF_STATUS_REPORT). The autopilot's own position (SITL's GPS is exact) is the reference.
 
 Prints, per model: the final and largest horizontal distance from the autopilot's position, and the
 filter's own 2-sigma radius at the end.
@@ -123,11 +123,11 @@ def fly(link, recorded: list, speedup: float) -> None:
     raise RuntimeError(f"the flight did not finish (phase {phase})")
 
 
-def replay(recorded: list, motion_model: str) -> dict:
+def replay(recorded: list, motion_model: str, position_fusion: str = "off") -> dict:
     base = load_config(REPO / "config" / "companion.yaml")
     config = dataclasses.replace(
         base, estimator=dataclasses.replace(base.estimator, motion_model=motion_model,
-                                            position_fusion="off"),
+                                            position_fusion=position_fusion),
         failsafe=dataclasses.replace(base.failsafe, require_camera=False))
     pipeline = Pipeline(config, None)
     parser = codec.Parser()
@@ -148,7 +148,8 @@ def replay(recorded: list, motion_model: str) -> dict:
         if isinstance(event, codec.LocalPosition) and nav is not None:
             gap = math.hypot(nav.slam.pose[0] - event.north_m, nav.slam.pose[1] - event.east_m)
             worst, last = max(worst, gap), (gap, radius_2sigma_m(nav.slam.pose_cov))
-    return {"final_m": last[0], "max_m": worst, "claimed_2sigma_m": last[1]}
+    return {"final_m": last[0], "max_m": worst, "claimed_2sigma_m": last[1],
+            "fixes": dict(pipeline.navigator.position_fixes)}
 
 
 def main() -> None:
@@ -187,10 +188,11 @@ def fly_sitl(args, recorded: list) -> None:
 def report(recorded: list) -> None:
     plan = ", ".join(f"{d:.0f} s v=({vn:g},{ve:g}) yaw {y:g}" for d, vn, ve, y in PLAN)
     print(f"plan: {plan}; estimate from 10 m up, position fusion off")
-    for model in ("paper", "velocity_ned"):
-        r = replay(recorded, model)
-        print(f"{model:13s} final {r['final_m']:6.2f} m, max {r['max_m']:6.2f} m from the "
-              f"autopilot's position; the filter's own 2-sigma {r['claimed_2sigma_m']:.2f} m")
+    for model, fusion in (("paper", "off"), ("velocity_ned", "off"), ("velocity_ned", "auto")):
+        r = replay(recorded, model, fusion)
+        print(f"{model:13s} fusion {fusion:4s} final {r['final_m']:6.2f} m, max {r['max_m']:6.2f} m "
+              f"from the autopilot's position; the filter's own 2-sigma "
+              f"{r['claimed_2sigma_m']:.2f} m; fixes {r['fixes']}")
 
 
 if __name__ == "__main__":
