@@ -26,7 +26,7 @@ def median_us(fn, reps: int) -> float:
 def build(landmarks: int, seed: int = 0) -> tuple[EkfSlam, np.ndarray]:
     """A filter with ``landmarks`` mapped landmarks scattered 5 to 200 m around the vehicle."""
     rng = np.random.default_rng(seed)
-    slam = EkfSlam(np.zeros(3), np.eye(3) * 0.01, NOISE, AssociationGates(outlier_nis=1e12))
+    slam = EkfSlam(np.zeros(3), np.eye(3) * 0.01, NOISE, AssociationGates(outlier_nis=1e12, pose_correction_nis=1e12))
     bearings = rng.uniform(-math.pi, math.pi, landmarks)
     ranges = rng.uniform(5.0, 200.0, landmarks)
     for i in range(landmarks):

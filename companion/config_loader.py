@@ -157,6 +157,8 @@ def _convert(hint: Any, value: Any, file: str | Path, path: str) -> Any:
         inner = [a for a in args if a is not type(None)]
         return _convert(inner[0], value, file, path)
     if origin is typing.Literal:
+        if isinstance(value, bool) and {"on", "off"} <= set(args):
+            value = "on" if value else "off"     # YAML 1.1 reads a bare on / off as a boolean
         if value not in args:
             raise ConfigError(f"{file}: {path}: expected one of {', '.join(map(str, args))}, "
                               f"got {_describe(value)}")

@@ -13,7 +13,7 @@ heartbeat is fresh enough to command it.
 Rules (docs/messages.md repeats them):
 - The vehicle is the first heartbeat from an autopilot (or the pinned ids). Obstacle reports are
   accepted from the vehicle's system, autopilot or camera component; everything else is ignored.
-- Odometry: one sample per LOCAL_POSITION_NED, speed = hypot(vx, vy), paired with the ATTITUDE
+- Odometry: one sample per LOCAL_POSITION_NED (its use: odometry_intake), paired with the ATTITUDE
   of the same time_boot_ms (the position waits for it until the next position arrives), else
   with the latest earlier ATTITUDE, its yaw carried forward by its yaw rate over the gap (at
   most ``max_attitude_age_s``, else the sample is skipped).
@@ -35,6 +35,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from companion import odometry_intake
 from companion.adapters import codec
 from companion.config import CompanionConfig, GoalConfig
 from companion.core.geometry import wrap_angle
@@ -123,6 +124,9 @@ class Pipeline:
         self._allowed = False
         self._attitudes: deque[codec.Attitude] = deque(maxlen=ATTITUDE_HISTORY)
         self._held_position: codec.LocalPosition | None = None
+        self._yaw_rate_rad_s = 0.0                  # of the ATTITUDE the last yaw came from
+        self.position_health = odometry_intake.PositionHealth(config.estimator)
+        self.estimator_notices = odometry_intake.EstimatorNotices()
         self._ap_yaw_rad: float | None = None       # autopilot yaw at the last odometry sample
         self._last_decision_t_s: float | None = None
         self._last_pose_out_t_s: float | None = None
@@ -166,6 +170,8 @@ class Pipeline:
                 self._pair_position(t_link_s, event, out)
         elif isinstance(event, codec.ObstacleFrame):
             self._on_obstacles(t_link_s, event, out)
+        elif isinstance(event, (codec.GpsFix, codec.EkfStatus)) and self._is_vehicle(event):
+            self.position_health.note(event, self.clock.latest_t_s)
         elif self._is_vehicle(event):
             self._on_flight_data(event)
         return out
@@ -333,7 +339,9 @@ class Pipeline:
                 gap = t_s - att.t_s
                 if gap > self.config.commanding.max_attitude_age_s:
                     return None
-                return wrap_angle(att.yaw_rad + att.yaw_rate_rad_s * max(gap, 0.0))
+                rate = att.yaw_rate_rad_s
+                self._yaw_rate_rad_s = rate
+                return wrap_angle(att.yaw_rad + rate * max(gap, 0.0))
         return None
 
     def _pair_position(self, t_link_s: float, lpn: codec.LocalPosition, out: list[Output]) -> None:
@@ -376,7 +384,8 @@ class Pipeline:
             out.append(NavigatorStarted(lpn.t_s))
         nav = self.navigator
         before = nav.t_s
-        reports = nav.on_odometry(lpn.t_s, speed, yaw)
+        reports = odometry_intake.absorb(nav, self.config.estimator, self.position_health, lpn,
+                                         yaw, self._yaw_rate_rad_s)
         if nav.t_s == before and before is not None:
             self._count("odometry_not_newer")
             return
@@ -399,7 +408,8 @@ class Pipeline:
         return Navigator(np.array([north_m, east_m, wrap_angle(yaw_rad)]), pose_cov,
                          est.slam_noise(), est.gates(), self.config.guidance_params(radius_m),
                          np.array(goal_ne),
-                         self.config.avoidance.strategy, self.config.avoidance.union_params())
+                         self.config.avoidance.strategy, self.config.avoidance.union_params(),
+                         est.mover_params(), est.options())
 
     def _maybe_publish_pose(self, t_s: float, out: list[Output]) -> None:
         if self._last_pose_out_t_s is not None and t_s - self._last_pose_out_t_s \
@@ -412,7 +422,8 @@ class Pipeline:
         self._last_pose_out_t_s = t_s
         north_m, east_m, yaw_rad = pose.tolist()
         out.append(codec.PoseEstimate(t_s, north_m, east_m, yaw_rad,
-                                      tuple(map(tuple, cov.tolist())), self.reset_counter))
+                                      tuple(map(tuple, cov.tolist())), self.reset_counter,
+                                      odometry_intake.quality(self.navigator)))
         # Tracked movers, for the ground station to see (docs/messages.md).
         for mover in self.navigator.movers.states(self.navigator.clock_s):
             if np.all(np.isfinite(mover.position_ne_m)):
@@ -489,6 +500,7 @@ class Pipeline:
         command, change = nav.decide(t_s)
         if change is not None:
             self._on_urgency(change, out)
+        out.extend(self.estimator_notices.after_decision(nav, command))
         if command.mode == "arrived" and self.arrival_t_s is None:
             self.arrival_t_s = t_s
             log.info("arrived at the goal at %.1f s", t_s)
@@ -618,4 +630,5 @@ def snapshot(pipeline: Pipeline) -> dict:
         "urgency_events": [asdict(r) for r in pipeline.urgency],
         "counters": dict(pipeline.counters),
         "rejected_by_estimator": dict(nav.rejected) if nav is not None else {},
+        **odometry_intake.snapshot(nav),
     }

@@ -43,6 +43,11 @@ def print_summary(report: dict, out: TextIO) -> None:
         f"final position error: median {_fmt(err.get('median'), ' m')}, "
         f"p95 {_fmt(err.get('p95'), ' m')}, max {_fmt(err.get('max'), ' m')}",
     ]
+    arrivals = agg.get("arrivals")
+    if arrivals and arrivals.get("max_true_goal_distance_m") is not None:
+        lines.append(f"arrivals declared: {arrivals['declared']}, uncertain (held): "
+                     f"{arrivals['uncertain']}; truth at most "
+                     f"{arrivals['max_true_goal_distance_m']:.2f} m from the goal")
     nees = agg.get("nees")
     if nees and nees.get("mean") is not None:
         lo, hi = nees["band"]

@@ -47,7 +47,9 @@ PLACEHOLDER_SYSTEM_ID = 1        # our system id until the vehicle's is known (i
 STREAMS = ((codec.MSG_ID_ATTITUDE, "attitude_rate_hz"),
            (codec.MSG_ID_LOCAL_POSITION_NED, "local_position_rate_hz"),
            (codec.MSG_ID_EXTENDED_SYS_STATE, "landed_state_rate_hz"),      # flight phases
-           (codec.MSG_ID_GLOBAL_POSITION_INT, "global_position_rate_hz"))
+           (codec.MSG_ID_GLOBAL_POSITION_INT, "global_position_rate_hz"),
+           (codec.MSG_ID_GPS_RAW_INT, "gps_raw_rate_hz"),                # position fusion 'auto'
+           (codec.MSG_ID_EKF_STATUS_REPORT, "ekf_status_rate_hz"))
 GEO_REFERENCE_RETRY_S = 2.0      # a lat/lon goal: ask for GPS_GLOBAL_ORIGIN and HOME this often
 
 

@@ -5,6 +5,7 @@ observations, and guidance acting on the estimate. One run per seed; aggregates 
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 
@@ -13,6 +14,7 @@ from filterpy.stats import NEES
 from scipy.stats import chi2
 
 from companion.config import Scenario
+from companion.core.consistency import STATES, radius_2sigma_m
 from companion.core.geometry import wrap_angle
 from companion.core.guidance import limit_turn
 from companion.core.navigator import Navigator
@@ -51,7 +53,8 @@ def make_navigator(scenario: Scenario, strategy: str | None = None) -> Navigator
     goal = np.array([scenario.world.goal.north_m, scenario.world.goal.east_m])
     return Navigator(pose, pose_cov, est.slam_noise(), est.gates(), scenario.guidance_params(),
                      goal, strategy or scenario.avoidance.strategy,
-                     scenario.avoidance.union_params(scenario.sensor.fov_rad))
+                     scenario.avoidance.union_params(scenario.sensor.fov_rad),
+                     mover_params=est.mover_params(), options=est.options())
 
 
 def pose_nees(true_pose: np.ndarray, est_pose: np.ndarray, cov: np.ndarray) -> float:
@@ -61,10 +64,26 @@ def pose_nees(true_pose: np.ndarray, est_pose: np.ndarray, cov: np.ndarray) -> f
     return float(NEES(error[None, :], np.zeros((1, 3)), cov[None, :, :])[0])
 
 
+def with_position_fusion(scenario: Scenario, position_fusion: str | None) -> Scenario:
+    """The scenario with its estimator's position_fusion replaced (None: as it is)."""
+    if position_fusion is None:
+        return scenario
+    est = dataclasses.replace(scenario.estimator_config(), position_fusion=position_fusion)
+    return dataclasses.replace(scenario, estimator=est)
+
+
 def run_once(scenario: Scenario, seed: int, strategy: str | None = None) -> RunOutcome:
     """Fly one seeded run of the scenario in-process."""
     truth = TruthWorld(scenario, np.random.default_rng(seed))
     nav = make_navigator(scenario, strategy)
+    est = scenario.estimator_config()
+    copter = scenario.vehicle.kind == "multicopter"
+    # The truth always reports a healthy fix: 'auto' fuses it.
+    fuse = est.position_fusion != "off"
+    fix_sigma_m = est.position_sigma_m or est.position_sigma_per_hdop_m
+    reported_yaw = float(nav.slam.mean[2])
+    health_s = {state: 0.0 for state in STATES}
+    uncertain_arrival_s: float | None = None
     vehicle = scenario.vehicle
     dt = vehicle.dt_s
     obs_every = max(1, round(1.0 / (scenario.sensor.rate_hz * dt)))
@@ -76,20 +95,39 @@ def run_once(scenario: Scenario, seed: int, strategy: str | None = None) -> RunO
     path_m = 0.0
     max_err = 0.0
     arrived = False
+    if copter:                         # the autopilot's first report starts the filter's clock
+        first = truth.copter_odometry(0.0)
+        nav.on_velocity(0.0, first.vel_north_mps, first.vel_east_mps, first.yaw_rad,
+                        first.yaw_rate_rad_s)
     nav.observe(truth.observe())
     for step in range(1, max_steps + 1):
         command, change = nav.decide(truth.t_s)
         if change is not None and change.landmark_index is not None:
             urgent_events += 1
+        health_s[nav.health.state] += dt
         if command.mode == "arrived":
             arrived = True
             break
+        if command.mode == "arrival_uncertain" and uncertain_arrival_s is None:
+            uncertain_arrival_s = truth.t_s
         est_heading = nav.slam.mean[2]
         gamma = limit_turn(est_heading, command.heading_rad, vehicle.max_turn_rate_rad_s, dt)
         before = truth.pose[:2].copy()
-        odo = truth.step(command.speed_mps, gamma)
+        if copter:
+            # As the service does: the turn-limited heading in the autopilot's yaw frame, flown
+            # as a velocity, the yaw commanded to it (pipeline._setpoint).
+            course = wrap_angle(reported_yaw + gamma)
+            odo = truth.step_copter(command.speed_mps * np.array([math.cos(course),
+                                                                  math.sin(course)]), course)
+            nav.on_velocity(truth.t_s, odo.vel_north_mps, odo.vel_east_mps, odo.yaw_rad,
+                            odo.yaw_rate_rad_s)
+            reported_yaw = odo.yaw_rad
+            if fuse:
+                nav.correct_position(*odo.position_ne_m, fix_sigma_m)
+        else:
+            odo = truth.step(command.speed_mps, gamma)
+            nav.predict(odo.speed_mps, odo.heading_change_rad, dt)
         path_m += float(np.hypot(*(truth.pose[:2] - before)))
-        nav.predict(odo.speed_mps, odo.heading_change_rad, dt)
         if step % obs_every == 0:
             nav.observe(truth.observe())
         gaps = np.hypot(*(truth.obstacle_positions() - truth.pose[:2]).T) if len(truth.obstacle_ids) else np.array([])
@@ -118,6 +156,13 @@ def run_once(scenario: Scenario, seed: int, strategy: str | None = None) -> RunO
         "landmark_errors_m": landmark_errors(nav, truth),
         "urgent_events": urgent_events,
         "path_length_m": path_m,
+        "arrived": arrived,
+        "arrival_uncertain_t_s": uncertain_arrival_s,
+        "final_pose_2sigma_m": radius_2sigma_m(nav.slam.pose_cov),
+        "estimator_state_s": health_s,
+        "estimator_state_changes": [[round(h.t_s, 3), h.state, h.reason]
+                                    for h in nav.health_changes],
+        "position_fixes": dict(nav.position_fixes),
     }
     return RunOutcome(summary, trace, nav.slam.landmarks(), nav.slam.landmark_covs(),
                       truth.obstacle_positions())
@@ -186,4 +231,17 @@ def aggregate_summaries(summaries: list[dict], pose_nees: list, safety_distance_
             "steps": int(steps),
         },
         "path_length_m": {"median": float(np.median([s["path_length_m"] for s in summaries]))},
+        "arrivals": arrival_figures(summaries),
+    }
+
+
+def arrival_figures(summaries: list[dict]) -> dict:
+    """How many runs declared arrival, how many held with an uncertain one, and how far from
+    the goal the truth was at the worst declared arrival."""
+    declared = [s for s in summaries if s.get("arrived")]
+    return {
+        "declared": len(declared),
+        "uncertain": sum(1 for s in summaries if s.get("arrival_uncertain_t_s") is not None),
+        "max_true_goal_distance_m": max((s["final_goal_distance_m"] for s in declared),
+                                        default=None),
     }

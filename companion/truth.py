@@ -1,5 +1,8 @@
 """The in-process truth world of ``companion simulate``: the vehicle and the camera, with noise.
 
+Two vehicles: the paper's unicycle (``step``: it flies along its yaw) and a multicopter
+(``step_copter``: a velocity command with an independent yaw, as ArduCopter's GUIDED).
+
 Only the simulation uses this; the estimator sees what it returns (noisy odometry and noisy
 observations), never the state. It has its own random source, seeded per run.
 """
@@ -22,6 +25,17 @@ class Odometry:
     heading_change_rad: float
 
 
+@dataclass(frozen=True)
+class CopterOdometry:
+    """What a multicopter's autopilot reports for one step, all noisy: the NED velocity, the yaw
+    rate over the step, the AHRS yaw, and the horizontal position with a GPS's error."""
+    vel_north_mps: float
+    vel_east_mps: float
+    yaw_rate_rad_s: float
+    yaw_rad: float
+    position_ne_m: tuple[float, float]
+
+
 class TruthWorld:
     """The vehicle's true pose and speed, the obstacles' true positions, and the sensors."""
 
@@ -38,6 +52,11 @@ class TruthWorld:
                                        for o in obstacles]).reshape(-1, 2)
         self.obstacle_radii = np.array([o.radius_m for o in obstacles])
         self.obstacle_ids = [o.id for o in obstacles]
+        # The multicopter: a velocity of its own (it starts cruising along its yaw, as the
+        # unicycle does) and a GPS bias, drawn only when it flies (the unicycle's random stream
+        # stays as it was).
+        self.vel_ne_mps = self.speed_mps * np.array([math.cos(self.pose[2]), math.sin(self.pose[2])])
+        self._gps_bias_m: np.ndarray | None = None
 
     def obstacle_positions(self) -> np.ndarray:
         """True obstacle centres now, (n, 2)."""
@@ -57,6 +76,45 @@ class TruthWorld:
         return Odometry(
             self.speed_mps + self.rng.normal(0.0, noise.speed_sigma_mps),
             heading_change_rad + self.rng.normal(0.0, math.radians(noise.heading_change_sigma_deg)))
+
+    def step_copter(self, vel_cmd_ne_mps: np.ndarray, yaw_cmd_rad: float) -> CopterOdometry:
+        """Advance one vehicle.dt_s as ArduCopter in GUIDED with the velocity + yaw mask: the
+        velocity moves toward the command (acceleration-limited as a vector), the yaw turns
+        toward the commanded yaw at max_turn_rate on its own, so course and heading differ."""
+        vehicle = self.scenario.vehicle
+        dt = vehicle.dt_s
+        dv = np.asarray(vel_cmd_ne_mps, dtype=float) - self.vel_ne_mps
+        dv_norm = float(np.hypot(*dv))
+        max_dv = vehicle.max_accel_mps2 * dt
+        if dv_norm > max_dv:
+            dv *= max_dv / dv_norm
+        mean_vel = self.vel_ne_mps + 0.5 * dv            # constant acceleration over the step
+        self.vel_ne_mps = self.vel_ne_mps + dv
+        max_turn = vehicle.max_turn_rate_rad_s * dt
+        turn = max(-max_turn, min(max_turn, wrap_angle(yaw_cmd_rad - self.pose[2])))
+        self.pose = np.array([self.pose[0] + mean_vel[0] * dt, self.pose[1] + mean_vel[1] * dt,
+                              wrap_angle(self.pose[2] + turn)])
+        self.speed_mps = float(np.hypot(*self.vel_ne_mps))
+        self.t_s += dt
+        return self.copter_odometry(turn / dt)
+
+    def copter_odometry(self, true_yaw_rate_rad_s: float) -> CopterOdometry:
+        """The autopilot's noisy report of the present state (see CopterOdometry)."""
+        noise, rng, dt = self.scenario.noise, self.rng, self.scenario.vehicle.dt_s
+        tau = noise.position_bias_tau_s
+        if self._gps_bias_m is None:
+            self._gps_bias_m = rng.normal(0.0, noise.position_bias_sigma_m, 2)
+        else:
+            keep = math.exp(-dt / tau)
+            self._gps_bias_m = keep * self._gps_bias_m + rng.normal(
+                0.0, noise.position_bias_sigma_m * math.sqrt(1.0 - keep * keep), 2)
+        vel = self.vel_ne_mps + rng.normal(0.0, noise.velocity_sigma_mps, 2)
+        fix = self.pose[:2] + self._gps_bias_m + rng.normal(0.0, noise.position_sigma_m, 2)
+        return CopterOdometry(
+            float(vel[0]), float(vel[1]),
+            true_yaw_rate_rad_s + rng.normal(0.0, math.radians(noise.yaw_rate_sigma_deg_s)),
+            wrap_angle(self.pose[2] + rng.normal(0.0, math.radians(noise.yaw_sigma_deg))),
+            (float(fix[0]), float(fix[1])))
 
     def observe(self) -> list[Observation]:
         """One camera frame: every obstacle centre in view, with R noise, misses, false alarms."""

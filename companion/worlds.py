@@ -35,7 +35,12 @@ KINDS = {
                        corridor_half_width_m=25.0),
     "moving": FieldSpec(count=(5, 20), radius_m=(1.0, 3.0), min_spacing_m=12.0, leg_m=(120.0, 300.0),
                         corridor_half_width_m=25.0, moving_fraction=0.3),
+    # 1500 m legs through 150 to 300 obstacles (issue 13): long enough for dead reckoning to
+    # matter; the corridor is wider (200 m) so that the field averages one obstacle per 1000 to 2000 m^2.
+    "long": FieldSpec(count=(150, 300), radius_m=(1.0, 3.0), min_spacing_m=12.0,
+                      leg_m=(1500.0, 1500.0), corridor_half_width_m=100.0),
 }
+PLACEMENT_TRIES_PER_OBSTACLE = 100
 
 
 def random_world(base: Scenario, kind: str, seed: int) -> Scenario:
@@ -49,7 +54,7 @@ def random_world(base: Scenario, kind: str, seed: int) -> Scenario:
     keep_out = d + spec.clear_of_ends_m
     wanted = int(rng.integers(spec.count[0], spec.count[1] + 1))
     centres: list[np.ndarray] = []
-    for _ in range(2000):
+    for _ in range(max(2000, PLACEMENT_TRIES_PER_OBSTACLE * wanted)):
         if len(centres) == wanted:
             break
         c = np.array([rng.uniform(0.0, leg), rng.uniform(-1.0, 1.0) * spec.corridor_half_width_m])

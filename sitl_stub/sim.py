@@ -80,7 +80,7 @@ class Simulation:
                                             noise.position_bias_sigma_m,
                                             noise.position_bias_tau_s,
                                             make_rng(seed, STREAM_POSITION))
-        self.yaw_noise_rad = 0.0
+        self.yaw_noise_rad = self.yaw_rate_noise_rad_s = 0.0
 
     @property
     def t_s(self) -> float:
@@ -94,7 +94,7 @@ class Simulation:
                                       climb.max_down_mps, self.limits.accel_up_mps2)
         noise = self.scenario.noise
         # Draw every step, even at rest, so the streams do not depend on arming history.
-        draws = self._rng_physics.normal(0.0, 1.0, 5)
+        draws = self._rng_physics.normal(0.0, 1.0, 6)
         speed_noise = float(draws[0]) * noise.speed_sigma_mps
         heading_noise = float(draws[1]) * noise.heading_change_sigma_rad
         vel_noise = (float(draws[2]) * noise.velocity_sigma_mps,
@@ -106,9 +106,10 @@ class Simulation:
         if demand.grounded:
             speed_noise = heading_noise = 0.0
             vel_noise = (0.0, 0.0)
-            self.yaw_noise_rad = 0.0
+            self.yaw_noise_rad = self.yaw_rate_noise_rad_s = 0.0
         else:
             self.yaw_noise_rad = float(draws[4]) * noise.yaw_sigma_rad
+            self.yaw_rate_noise_rad_s = float(draws[5]) * noise.yaw_rate_sigma_rad_s
         self.odometry = step_odometry(self.odometry, before, self.truth, speed_noise,
                                       heading_noise, vel_noise, self.dt_s)
         self.step_index += 1
@@ -121,6 +122,10 @@ class Simulation:
         err = self.position_error
         return (self.truth.north_m + err.bias_ne_m[0] + err.white_ne_m[0],
                 self.truth.east_m + err.bias_ne_m[1] + err.white_ne_m[1])
+
+    def reported_yaw_rate_rad_s(self) -> float:
+        """ATTITUDE yawspeed: the odometry's yaw rate plus gyro-like white noise."""
+        return self.odometry.yaw_rate_rad_s + self.yaw_rate_noise_rad_s
 
     def reported_yaw_rad(self) -> float:
         """ATTITUDE yaw: the integrated heading plus the compass-like white noise."""

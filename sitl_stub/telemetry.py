@@ -168,9 +168,9 @@ def system_time(t_s: float, start_unix_s: float) -> mavlink.MAVLink_message:
     return mavlink.MAVLink_system_time_message(int((start_unix_s + t_s) * 1e6), time_boot_ms(t_s))
 
 
-def attitude(t_s: float, odom: Odometry, yaw_rad: float) -> mavlink.MAVLink_message:
+def attitude(t_s: float, yaw_rad: float, yaw_rate_rad_s: float) -> mavlink.MAVLink_message:
     return mavlink.MAVLink_attitude_message(time_boot_ms(t_s), 0.0, 0.0, _angle_f32(yaw_rad),
-                                            0.0, 0.0, odom.yaw_rate_rad_s)
+                                            0.0, 0.0, yaw_rate_rad_s)
 
 
 def local_position_ned(t_s: float, odom: Odometry, north_m: float,

@@ -97,6 +97,7 @@ class NoiseConfig:
     velocity_sigma_mps: extra white noise on each reported NED velocity axis.
     yaw_sigma_rad: white noise on the reported yaw (a compass-aided heading), on top of the
         integrated heading-change noise.
+    yaw_rate_sigma_rad_s: white noise on the reported yaw rate (ATTITUDE yawspeed: a gyro).
     position_sigma_m: None: no GPS (LOCAL_POSITION_NED x, y are the dead-reckoned odometry);
         else x, y = truth + a slow bias + white noise of this sigma per axis (GPS-like).
     position_bias_sigma_m, position_bias_tau_s: the bias, a first-order Gauss-Markov process
@@ -106,6 +107,7 @@ class NoiseConfig:
     heading_change_sigma_rad: float
     velocity_sigma_mps: float = 0.0
     yaw_sigma_rad: float = 0.0
+    yaw_rate_sigma_rad_s: float = 0.0
     position_sigma_m: float | None = None
     position_bias_sigma_m: float = 0.0
     position_bias_tau_s: float = 300.0
@@ -289,7 +291,15 @@ def _parse_world(r: _Reader) -> WorldConfig:
     return WorldConfig(origin=origin, start=start, goal=goal, obstacles=tuple(obstacles))
 
 
+VEHICLE_KINDS = ("unicycle", "multicopter")
+
+
 def _parse_vehicle(r: _Reader) -> VehicleConfig:
+    # The stub always flies ArduCopter's GUIDED semantics (velocity, yaw turning on its own);
+    # `kind` is the in-process truth's choice (companion simulate), checked here and not used.
+    kind = r._get("kind", "unicycle")
+    if kind not in VEHICLE_KINDS:
+        raise r.error(f"expected one of {', '.join(VEHICLE_KINDS)}, got {_show(kind)}", "kind")
     cfg = VehicleConfig(
         speed_mps=r.number("speed_mps", minimum=0, strict_min=True),
         max_turn_rate_rad_s=math.radians(r.number("max_turn_rate_deg_s", minimum=0, strict_min=True)),
@@ -306,6 +316,7 @@ def _parse_noise(r: _Reader) -> NoiseConfig:
         heading_change_sigma_rad=math.radians(r.number("heading_change_sigma_deg", minimum=0)),
         velocity_sigma_mps=r.number("velocity_sigma_mps", 0.0, minimum=0),
         yaw_sigma_rad=math.radians(r.number("yaw_sigma_deg", 0.0, minimum=0)),
+        yaw_rate_sigma_rad_s=math.radians(r.number("yaw_rate_sigma_deg_s", 0.0, minimum=0)),
         position_sigma_m=(None if position_sigma is None
                           else r.number("position_sigma_m", minimum=0)),
         position_bias_sigma_m=r.number("position_bias_sigma_m", 0.0, minimum=0),

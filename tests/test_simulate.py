@@ -7,7 +7,8 @@ from companion.__main__ import main
 
 RUN_FIELDS = {"seed", "reached_goal", "time_s", "min_clearance_m", "collided", "final_goal_distance_m",
               "final_position_error_m", "max_position_error_m", "landmark_errors_m", "urgent_events",
-              "path_length_m"}
+              "path_length_m", "arrived", "arrival_uncertain_t_s", "final_pose_2sigma_m",
+              "estimator_state_s", "estimator_state_changes", "position_fixes"}
 
 
 def simulate(tmp_path, *args):
@@ -105,3 +106,33 @@ def test_moving_worlds_without_obstacle_ids(tmp_path):
     agg = report["aggregate"]
     assert agg["collision_rate"] == 0.0
     assert agg["success_rate"] >= 0.95
+
+
+@pytest.mark.parametrize("fusion, p95_limit_m", [("on", 1.0), ("off", 2.0)])
+def test_multicopter_scenario_with_and_without_the_autopilot_position(tmp_path, fusion, p95_limit_m):
+    """Issue 13: the paper's world flown by a multicopter, its autopilot's position fused or not
+    (GPS-denied SLAM)."""
+    report = simulate(tmp_path, "--scenario", "config/scenarios/copter.yaml", "--runs", "20",
+                      "--position-fusion", fusion)
+    agg = report["aggregate"]
+    assert agg["success_rate"] == 1.0 and agg["collision_rate"] == 0.0
+    assert agg["final_position_error_m"]["p95"] < p95_limit_m
+    assert agg["nees"]["in_band_fraction"] >= 0.85
+    fixes = [run["position_fixes"]["fused"] for run in report["runs"]]
+    assert (min(fixes) >= 30) if fusion == "on" else (max(fixes) == 0)
+    assert agg["arrivals"]["declared"] == 20 and agg["arrivals"]["max_true_goal_distance_m"] < 4.0
+    for run in report["runs"]:
+        assert len(run["landmark_errors_m"]) == 2 and max(run["landmark_errors_m"]) < 1.0
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("kind, success", [("dense", 0.99), ("long", 0.90)])
+def test_multicopter_random_worlds_gps_denied(tmp_path, kind, success):
+    """Issue 13's acceptance: dense worlds and 1500 m legs through 150-300 obstacles, fusion off;
+    no arrival declared more than the goal radius + 2 m from the truth."""
+    runs = "100" if kind == "dense" else "30"
+    report = simulate(tmp_path, "--scenario", "config/scenarios/copter.yaml", "--random-worlds",
+                      kind, "--runs", runs, "--position-fusion", "off")
+    agg = report["aggregate"]
+    assert agg["success_rate"] >= success and agg["collision_rate"] == 0.0
+    assert agg["arrivals"]["max_true_goal_distance_m"] <= 2.0 + 2.0

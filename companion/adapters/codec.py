@@ -32,14 +32,19 @@ MSG_ID_GLOBAL_POSITION_INT = mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT
 MSG_ID_EXTENDED_SYS_STATE = mavlink.MAVLINK_MSG_ID_EXTENDED_SYS_STATE
 MSG_ID_HOME_POSITION = mavlink.MAVLINK_MSG_ID_HOME_POSITION
 MSG_ID_GPS_GLOBAL_ORIGIN = mavlink.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN
+MSG_ID_GPS_RAW_INT = mavlink.MAVLINK_MSG_ID_GPS_RAW_INT
+MSG_ID_EKF_STATUS_REPORT = mavlink.MAVLINK_MSG_ID_EKF_STATUS_REPORT
 # SET_POSITION_TARGET_LOCAL_NED.type_mask: ignore position (0x7), acceleration (0x1C0) and yaw
 # rate (0x800); use velocity (vx, vy and vz: ArduCopter flies vz as a climb rate) and yaw.
 VELOCITY_YAW_TYPE_MASK = 0x09C7
 # REQUEST_DATA_STREAM fallback: LOCAL_POSITION_NED and GLOBAL_POSITION_INT ride POSITION,
-# ATTITUDE rides EXTRA1. EXTENDED_SYS_STATE rides no stream on ArduCopter (interval only).
+# ATTITUDE rides EXTRA1, GPS_RAW_INT EXTENDED_STATUS, EKF_STATUS_REPORT EXTRA3 (ArduCopter
+# GCS_Mavlink.cpp). EXTENDED_SYS_STATE rides no stream on ArduCopter (interval only).
 DATA_STREAMS_FOR = {MSG_ID_LOCAL_POSITION_NED: mavlink.MAV_DATA_STREAM_POSITION,
                     MSG_ID_GLOBAL_POSITION_INT: mavlink.MAV_DATA_STREAM_POSITION,
-                    MSG_ID_ATTITUDE: mavlink.MAV_DATA_STREAM_EXTRA1}
+                    MSG_ID_ATTITUDE: mavlink.MAV_DATA_STREAM_EXTRA1,
+                    MSG_ID_GPS_RAW_INT: mavlink.MAV_DATA_STREAM_EXTENDED_STATUS,
+                    MSG_ID_EKF_STATUS_REPORT: mavlink.MAV_DATA_STREAM_EXTRA3}
 # MAV_LANDED_STATE
 LANDED_STATE_UNDEFINED = mavlink.MAV_LANDED_STATE_UNDEFINED      # 0
 LANDED_STATE_ON_GROUND = mavlink.MAV_LANDED_STATE_ON_GROUND      # 1
@@ -159,8 +164,40 @@ class StatusText:
     text: str
 
 
+@dataclass(frozen=True)
+class GpsFix:
+    """GPS_RAW_INT: the fix type (GPS_FIX_TYPE: 3 = 3D), HDOP (None: unknown) and the receiver's
+    horizontal accuracy (None: not reported)."""
+    system_id: int
+    component_id: int
+    fix_type: int
+    hdop: float | None
+    h_acc_m: float | None
+    satellites: int | None
+
+
+# EKF_STATUS_REPORT.flags (ESTIMATOR_STATUS_FLAGS) the position-fusion rule reads.
+EKF_POS_HORIZ_ABS = mavlink.ESTIMATOR_POS_HORIZ_ABS
+EKF_CONST_POS_MODE = mavlink.ESTIMATOR_CONST_POS_MODE
+EKF_GPS_GLITCH = mavlink.ESTIMATOR_GPS_GLITCH
+
+
+@dataclass(frozen=True)
+class EkfStatus:
+    """EKF_STATUS_REPORT: is the autopilot's absolute horizontal position good?"""
+    system_id: int
+    component_id: int
+    flags: int
+
+    @property
+    def horizontal_position_ok(self) -> bool:
+        """An absolute horizontal position, not the constant-position fallback, no GPS glitch."""
+        bad = EKF_CONST_POS_MODE | EKF_GPS_GLITCH
+        return bool(self.flags & EKF_POS_HORIZ_ABS) and not self.flags & bad
+
+
 Event = Heartbeat | Attitude | LocalPosition | ObstacleFrame | CommandAck | StatusText \
-    | GlobalPosition | LandedState | GeoReference
+    | GlobalPosition | LandedState | GeoReference | GpsFix | EkfStatus
 
 
 def decode(msg) -> Event | None:
@@ -282,7 +319,23 @@ def _statustext(msg, sysid: int, compid: int) -> StatusText:
     return StatusText(sysid, compid, msg.severity, text.rstrip("\x00"))
 
 
+def _gps_raw(msg, sysid: int, compid: int) -> GpsFix:
+    """GPS_RAW_INT: eph is HDOP x 100 (UINT16_MAX unknown); h_acc, a MAVLink 2 extension, is
+    millimetres (0 when not sent); satellites_visible 255 is unknown."""
+    hdop = None if msg.eph == 65535 else msg.eph / 100.0
+    h_acc = getattr(msg, "h_acc", 0) or 0
+    sats = None if msg.satellites_visible == 255 else int(msg.satellites_visible)
+    return GpsFix(sysid, compid, int(msg.fix_type), hdop, h_acc / 1000.0 if h_acc > 0 else None,
+                  sats)
+
+
+def _ekf_status(msg, sysid: int, compid: int) -> EkfStatus:
+    return EkfStatus(sysid, compid, int(msg.flags))
+
+
 _DECODERS = {
+    "GPS_RAW_INT": _gps_raw,
+    "EKF_STATUS_REPORT": _ekf_status,
     "HEARTBEAT": _heartbeat,
     "ATTITUDE": _attitude,
     "LOCAL_POSITION_NED": _local_position,
@@ -321,6 +374,7 @@ class PoseEstimate:
     yaw_rad: float
     cov: tuple[tuple[float, ...], ...]
     reset_counter: int
+    quality: int = 0            # ODOMETRY.quality: 100 best, 1 worst, 0 unknown, -1 failed
 
 
 @dataclass(frozen=True)
@@ -427,7 +481,7 @@ def odometry(pose: PoseEstimate) -> mavlink.MAVLink_odometry_message:
         int(round(pose.t_s * 1e6)), mavlink.MAV_FRAME_LOCAL_NED, mavlink.MAV_FRAME_BODY_FRD,
         pose.north_m, pose.east_m, nan, [math.cos(half), 0.0, 0.0, math.sin(half)],
         nan, nan, nan, nan, nan, nan, pose_covariance_21(pose.cov), [nan] * 21,
-        pose.reset_counter & 0xFF, mavlink.MAV_ESTIMATOR_TYPE_VIO, 0)
+        pose.reset_counter & 0xFF, mavlink.MAV_ESTIMATOR_TYPE_VIO, max(-1, min(100, pose.quality)))
 
 
 def odometry_fields(msg) -> tuple[float, float, float]:

@@ -10,7 +10,7 @@ from companion.worlds import KINDS, random_world
 
 DEFAULT_SCENARIO = "config/scenarios/paper.yaml"
 from companion.report import print_summary, write_json
-from companion.simulation import aggregate, run_once
+from companion.simulation import aggregate, run_once, with_position_fusion
 
 
 def add_parser(sub) -> None:
@@ -27,6 +27,8 @@ def add_parser(sub) -> None:
     p.add_argument("--seed", type=int, default=0, help="seed of the first run (default 0)")
     p.add_argument("--strategy", choices=("cone", "union", "apf"), default=None,
                    help="guidance strategy (default: the scenario's)")
+    p.add_argument("--position-fusion", choices=("auto", "on", "off"), default=None,
+                   help="fuse the autopilot's position or not (default: the scenario's estimator)")
     p.add_argument("--json", metavar="PATH", help="write {aggregate, runs} as JSON")
     p.add_argument("--plot", metavar="PATH", help="draw the first run as a PNG (paper's Figure 4)")
     p.set_defaults(handler=run)
@@ -42,7 +44,8 @@ def _positive_int(text: str) -> int:
 def run(args: argparse.Namespace) -> int:
     if args.scenario is None and args.random_worlds is None:
         raise CompanionError("simulate: give --scenario PATH or --random-worlds KIND")
-    scenario = load_scenario(args.scenario or DEFAULT_SCENARIO)
+    scenario = with_position_fusion(load_scenario(args.scenario or DEFAULT_SCENARIO),
+                                    args.position_fusion)
     strategy = args.strategy or scenario.avoidance.strategy
     seeds = range(args.seed, args.seed + args.runs)
     outcomes = []

@@ -5,7 +5,12 @@ mean and covariance in place. The covariance is (3+2n)^2 numbers; copying it int
 at every step would cost more than the update itself (see benchmarks/run.py). What the methods
 return is frozen: :class:`UpdateReport` carries the diagnostics (innovation, NIS, which landmark).
 
-Costs: predict touches only the vehicle rows and columns, O(n). An update is one gather of five
+Two motion models: the paper's unicycle (``predict``: speed along the yaw plus a heading change)
+and the multicopter's (``predict_velocity``: the autopilot's NED velocity and yaw rate, the yaw
+corrected by the autopilot's own yaw through ``update_yaw``). ``update_position`` fuses the
+autopilot's horizontal position when it can be trusted.
+
+Costs: predict touches only the vehicle rows and columns, O(n) (the multicopter's, O(1)). An update is one gather of five
 columns and one rank-4 in-place correction of the covariance (Joseph form), O(n^2) with a single
 pass over the matrix. filterpy's ExtendedKalmanFilter is not used for either: its predict forms
 F P F^T densely (O(n^3)) and its update builds the dense (N, N) I - K H product. Nor is
@@ -48,6 +53,15 @@ class SlamNoise:
         return np.diag([self.range_sigma_m ** 2, self.bearing_sigma_rad ** 2])
 
 
+@dataclass(frozen=True)
+class VelocityNoise:
+    """Q of the multicopter model, per odometry sample (a sample's error is held over its dt):
+    the autopilot's NED velocity on each axis and its yaw rate."""
+    vel_north_sigma_mps: float
+    vel_east_sigma_mps: float
+    yaw_rate_sigma_rad_s: float
+
+
 def chi2_2dof_quantile(p: float) -> float:
     """Chi-square quantile for 2 degrees of freedom, exactly: the CDF is 1 - exp(-x/2).
 
@@ -63,11 +77,18 @@ class AssociationGates:
     An observation with NIS <= ``accept_nis`` against its nearest landmark updates it; one whose
     NIS exceeds ``new_landmark_nis`` against every landmark starts a new one; in between it is
     ambiguous and dropped. ``outlier_nis`` rejects an id-associated observation that disagrees
-    grossly with its landmark (a glitch, or a mover).
+    grossly with its landmark (a glitch, or a mover). ``pose_correction_nis``: an id-associated
+    observation beyond it (but within ``outlier_nis``) corrects its landmark only, never the pose:
+    no single update moves the pose further than the acceptance gate allows (None: accept_nis).
     """
     accept_nis: float = chi2_2dof_quantile(0.99)
     new_landmark_nis: float = chi2_2dof_quantile(0.99999)
     outlier_nis: float = chi2_2dof_quantile(0.99999)
+    pose_correction_nis: float | None = None
+
+    @property
+    def pose_nis(self) -> float:
+        return self.accept_nis if self.pose_correction_nis is None else self.pose_correction_nis
 
     def __post_init__(self) -> None:
         if not 0.0 < self.accept_nis <= self.new_landmark_nis:
@@ -209,6 +230,70 @@ class EkfSlam:
         n22 = p22 + q_turn
         cov[:3, :3] = ((n00, n01, n02), (n01, n11, n12), (n02, n12, n22))
 
+    def predict_velocity(self, vel_north_mps: float, vel_east_mps: float, yaw_rate_rad_s: float,
+                         dt_s: float, noise: VelocityNoise, var_scale: float = 1.0) -> None:
+        """Propagate through the multicopter model (geometry.move_velocity): the position moves by
+        the autopilot's NED velocity, the yaw by its yaw rate, course and yaw independent.
+
+        F is the identity, so the covariance only gains Q on the vehicle's diagonal: O(1), and
+        the vehicle-landmark cross-covariance is untouched. ``var_scale`` as in :meth:`predict`
+        (an interval predicted in parts keeps one sample's variance).
+        """
+        if dt_s <= 0.0:
+            return
+        mean, cov = self._mean_buf, self._cov_buf
+        mean[0] += vel_north_mps * dt_s
+        mean[1] += vel_east_mps * dt_s
+        mean[2] = wrap_angle(float(mean[2]) + yaw_rate_rad_s * dt_s)
+        held = var_scale * dt_s * dt_s
+        cov[0, 0] += noise.vel_north_sigma_mps ** 2 * held
+        cov[1, 1] += noise.vel_east_sigma_mps ** 2 * held
+        cov[2, 2] += noise.yaw_rate_sigma_rad_s ** 2 * held
+
+    def update_yaw(self, yaw_rad: float, sigma_rad: float, gate_nis: float) -> UpdateReport:
+        """Correct with a direct yaw measurement (the autopilot's AHRS yaw), R = sigma^2.
+
+        The autopilot's yaw is the reference the vehicle flies by, so it is never refused: when
+        its NIS exceeds ``gate_nis`` (1 dof) the yaw variance is first inflated by the squared
+        innovation (a yaw reset, as ArduPilot's EKF does its own), then the update is made
+        ('yaw_reset'; the report's NIS is the one before the reset). Refusing it instead would
+        lock the filter out of the yaw for good once it had drifted past the gate.
+        """
+        cols = np.array([2])
+        jac = np.ones((1, 1))
+        meas_cov = np.array([[sigma_rad ** 2]])
+        innovation = np.array([wrap_angle(yaw_rad - float(self._mean_buf[2]))])
+        nis = float(innovation[0] ** 2 / (self._cov_buf[2, 2] + meas_cov[0, 0]))
+        if not nis <= gate_nis:
+            self._cov_buf[2, 2] += innovation[0] ** 2
+            report = self._correct_direct(cols, jac, innovation, meas_cov, math.inf, "yaw_reset")
+            return UpdateReport("yaw_reset", None, report.innovation, nis, None)
+        return self._correct_direct(cols, jac, innovation, meas_cov, gate_nis, "yaw")
+
+    def update_position(self, north_m: float, east_m: float, sigma_m: float,
+                        gate_nis: float) -> UpdateReport:
+        """Correct with a horizontal position fix (the autopilot's LOCAL_POSITION_NED x, y),
+        R = sigma^2 I. Refused ('outlier', state untouched) when its NIS exceeds ``gate_nis``
+        (2 dof), so a glitch cannot drag the pose and the map."""
+        cols = np.array([0, 1])
+        innovation = np.array([north_m - float(self._mean_buf[0]),
+                               east_m - float(self._mean_buf[1])])
+        return self._correct_direct(cols, np.eye(2), innovation, np.eye(2) * sigma_m ** 2,
+                                    gate_nis, "position")
+
+    def _correct_direct(self, cols: np.ndarray, jac: np.ndarray, innovation: np.ndarray,
+                        meas_cov: np.ndarray, gate_nis: float, action: str) -> UpdateReport:
+        """Update with a measurement of vehicle states ``cols`` (k,), H restricted to them ``jac``
+        (k,k); the same in-place Joseph correction as a landmark's."""
+        p_ht = self.cov[:, cols] @ jac.T                          # (N, k)
+        s = jac @ p_ht[cols] + meas_cov
+        s_inv = np.linalg.inv(s)
+        nis = float(innovation @ s_inv @ innovation)
+        if not nis <= gate_nis:
+            return UpdateReport("outlier", None, tuple(map(float, innovation)), nis, None)
+        self._apply_gain(innovation, s, s_inv, p_ht)
+        return UpdateReport(action, None, tuple(map(float, innovation)), nis, None)
+
     # ---------------------------------------------------------------- update
     def update_frame(self, observations: Iterable[Observation]) -> list[UpdateReport]:
         """Process one camera frame. Without ids, each landmark takes at most one observation."""
@@ -240,7 +325,8 @@ class EkfSlam:
             nis = float(innovation @ np.linalg.solve(s, innovation))
             if nis > self.gates.outlier_nis:
                 return UpdateReport("outlier", index, tuple(innovation), nis, obs.obstacle_id)
-            return self._correct(parts, index, obs.obstacle_id, landmark_only)
+            return self._correct(parts, index, obs.obstacle_id,
+                                 landmark_only or nis > self.gates.pose_nis)
         if self.landmark_count == 0:
             return self._add(z, None)
         nis_all, _ = self.nis_all(z)
@@ -335,18 +421,24 @@ class EkfSlam:
         if landmark_only:
             self._correct_landmark_only(index, innovation, s, s_inv, p_ht)
         else:
-            gain = p_ht @ s_inv                                    # K, (N, 2)
-            self._mean_buf += gain @ innovation
-            self._mean_buf[2] = wrap_angle(self._mean_buf[2])
-            half = p_ht - 0.5 * gain @ s                           # B, (N, 2)
-            left = np.concatenate((gain, half), axis=1)            # (N, 4)
-            right = np.concatenate((half, gain), axis=1)
-            # P -= left right^T in one BLAS pass, no (N, N) temporary: P is symmetric, so its
-            # transpose is a Fortran-ordered view of the same memory, which dgemm updates in
-            # place (P^T <- P^T - right left^T). numpy's ``P -= left @ right.T`` takes two passes.
-            dgemm(-1.0, right, left, beta=1.0, c=self._cov_buf.T, trans_b=1, overwrite_c=1)
+            self._apply_gain(innovation, s, s_inv, p_ht)
         return UpdateReport("updated", index, (float(innovation[0]), float(innovation[1])),
                             nis, obstacle_id)
+
+    def _apply_gain(self, innovation: np.ndarray, s: np.ndarray, s_inv: np.ndarray,
+                    p_ht: np.ndarray) -> None:
+        """Mean and Joseph covariance update in place for any measurement of dimension k:
+        innovation (k,), S and S^-1 (k,k), P H^T (N,k). One rank-2k BLAS pass."""
+        gain = p_ht @ s_inv                                        # K, (N, k)
+        self._mean_buf += gain @ innovation
+        self._mean_buf[2] = wrap_angle(self._mean_buf[2])
+        half = p_ht - 0.5 * gain @ s                               # B, (N, k)
+        left = np.concatenate((gain, half), axis=1)                # (N, 2k)
+        right = np.concatenate((half, gain), axis=1)
+        # P -= left right^T in one BLAS pass, no (N, N) temporary: P is symmetric, so its
+        # transpose is a Fortran-ordered view of the same memory, which dgemm updates in
+        # place (P^T <- P^T - right left^T). numpy's ``P -= left @ right.T`` takes two passes.
+        dgemm(-1.0, right, left, beta=1.0, c=self._cov_buf.T, trans_b=1, overwrite_c=1)
 
     def _correct_landmark_only(self, index: int, innovation: np.ndarray, s: np.ndarray,
                                s_inv: np.ndarray, p_ht: np.ndarray) -> None:

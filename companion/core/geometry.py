@@ -1,4 +1,5 @@
-"""The paper's 2D kinematic and range-bearing models, with their Jacobians.
+"""The 2D kinematic models (the paper's unicycle, the multicopter) and the range-bearing model,
+with their Jacobians.
 
 Frame: MAVLink LOCAL_NED. ``x`` is metres north, ``y`` metres east, ``psi`` the yaw in radians,
 clockwise from north. A bearing is measured from the vehicle's heading, positive to the right
@@ -50,6 +51,25 @@ def move_jacobians(pose: np.ndarray, speed_mps: float, heading_change_rad: float
                             [dt_s * s, step_m * c],
                             [0.0, 1.0]])
     return jac_pose, jac_control
+
+
+def move_velocity(pose: np.ndarray, vel_north_mps: float, vel_east_mps: float,
+                  yaw_rate_rad_s: float, dt_s: float) -> np.ndarray:
+    """The multicopter model: fly the NED velocity the autopilot reports, turn at its yaw rate.
+
+    Course and yaw are independent (hover, sideways flight, crabbing). pose: (3,)
+    [north_m, east_m, yaw_rad]; returns a new (3,) pose, yaw wrapped.
+    """
+    return np.array([pose[0] + vel_north_mps * dt_s, pose[1] + vel_east_mps * dt_s,
+                     wrap_angle(pose[2] + yaw_rate_rad_s * dt_s)])
+
+
+def move_velocity_jacobians(pose: np.ndarray, vel_north_mps: float, vel_east_mps: float,
+                            yaw_rate_rad_s: float, dt_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """Jacobians of :func:`move_velocity`: (3,3) to the pose (the identity: the motion does not
+    depend on the pose, which is what makes the filter's predict O(1)), (3,3) to the control
+    [vel_north, vel_east, yaw_rate] (dt on the diagonal)."""
+    return np.eye(3), np.eye(3) * dt_s
 
 
 def observe(pose: np.ndarray, landmark: np.ndarray) -> np.ndarray:

@@ -11,10 +11,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from companion.core.consistency import Consistency, ConsistencyMonitor
 from companion.core.ekf_slam import AssociationGates, EkfSlam, Observation, SlamNoise, UpdateReport
-from companion.core.geometry import wrap_angle
+from companion.core.estimator_options import EstimatorOptions, moderate
+from companion.core.geometry import move, move_velocity, place, wrap_angle
 from companion.core.guidance import GuidanceCommand, GuidanceParams, guide_apf, guide_cone
-from companion.core.geometry import move, place
 from companion.core.movers import MoverParams, MoverTracker, apparent_velocity, world_measurement
 from companion.core.union import UnionParams, guide_union
 
@@ -52,10 +53,19 @@ class Navigator:
     def __init__(self, start_pose: np.ndarray, start_pose_cov: np.ndarray, noise: SlamNoise,
                  gates: AssociationGates, params: GuidanceParams, goal: np.ndarray,
                  strategy: str = "cone", union: UnionParams = UnionParams(),
-                 mover_params: MoverParams = MoverParams()) -> None:
+                 mover_params: MoverParams = MoverParams(),
+                 options: EstimatorOptions = EstimatorOptions()) -> None:
         if strategy not in STRATEGIES:
             raise ValueError(f"unknown strategy {strategy!r}")
         self.slam = EkfSlam(start_pose, start_pose_cov, noise, gates)
+        self.options = options
+        self.monitor = ConsistencyMonitor(options.monitor)
+        self.health: Consistency | None = None
+        self.health_changes: list[Consistency] = []     # every change of state, in order
+        self.position_fixes = {"fused": 0, "refused": 0}
+        self._last_fix_s: float | None = None
+        self._last_velocity: tuple[float, float] | None = None   # NED, at the last sample
+        self._crab_mps: deque[tuple[float, float]] = deque()   # paper model: (t, unmodelled speed)
         self.params = params
         self.goal = np.asarray(goal, dtype=float)
         self.strategy = strategy
@@ -82,15 +92,24 @@ class Navigator:
     # ------------------------------------------------------ timed inputs
     # The live service and the replay feed messages through these two methods, stamped with the
     # messages' own clock (time_boot_ms), so the same stream gives the same estimates anywhere.
-    def on_odometry(self, t_s: float, speed_mps: float, yaw_rad: float) -> list[UpdateReport]:
+    def on_odometry(self, t_s: float, speed_mps: float, yaw_rad: float,
+                    course_rad: float | None = None) -> list[UpdateReport]:
         """Absorb one odometry sample: the speed over the interval ending at ``t_s`` and the
         autopilot's (gyro-integrated) yaw at ``t_s``. The heading change is the yaw difference, so
         a lost sample costs no heading. Then process any observation frames this time covers.
+
+        ``course_rad``, the direction of the velocity if known: the unicycle flies along its yaw,
+        so the difference of the two velocities, 2 speed |sin((course - yaw) / 2)|, is motion this
+        model does not have; the mover test allows for it (a crabbing vehicle's dead reckoning
+        sees static obstacles drift by that much).
         """
         if not (math.isfinite(t_s) and math.isfinite(speed_mps) and math.isfinite(yaw_rad)) \
                 or speed_mps < 0.0:
             self._reject("odometry_not_finite")
             return []
+        if course_rad is not None and math.isfinite(course_rad):
+            self._crab_mps.append(
+                (t_s, 2.0 * speed_mps * abs(math.sin(0.5 * wrap_angle(course_rad - yaw_rad)))))
         if self.t_s is None:
             self.t_s, self._yaw_rad, self.clock_s = t_s, yaw_rad, t_s
             return self._release()
@@ -122,6 +141,50 @@ class Navigator:
         rest = t_s - cursor
         self.predict(speed_mps, turn - turned, rest,
                      speed_var_scale=1.0 if cursor == start else dt / rest)
+        self.t_s, self._yaw_rad = t_s, yaw_rad
+        return reports + self._release()
+
+    def on_velocity(self, t_s: float, vel_north_mps: float, vel_east_mps: float, yaw_rad: float,
+                    yaw_rate_rad_s: float) -> list[UpdateReport]:
+        """The multicopter's odometry sample: the NED velocity and yaw rate at ``t_s`` and the
+        autopilot's yaw then (a measurement of the yaw state). The interval since the last sample
+        is flown at the mean of its two velocities (trapezoidal: the velocity at one end would
+        misplace the vehicle by half a step's speed change at every acceleration) and turned at
+        the yaw rate of ``t_s`` (whatever lag that has, the yaw measurement takes out).
+        Frames inside the interval are observed at their own time, as in :meth:`on_odometry`."""
+        values = (t_s, vel_north_mps, vel_east_mps, yaw_rad, yaw_rate_rad_s)
+        if not all(math.isfinite(v) for v in values):
+            self._reject("odometry_not_finite")
+            return []
+        if self.t_s is None:
+            self.t_s, self._yaw_rad, self.clock_s = t_s, yaw_rad, t_s
+            self._last_velocity = (vel_north_mps, vel_east_mps)
+            self.correct_yaw(yaw_rad)
+            return self._release()
+        dt = t_s - self.t_s
+        if dt <= 0.0:
+            self._reject("odometry_not_newer")
+            return []
+        last_north, last_east = self._last_velocity or (vel_north_mps, vel_east_mps)
+        self._last_velocity = (vel_north_mps, vel_east_mps)
+        vel_north_mps = 0.5 * (vel_north_mps + last_north)
+        vel_east_mps = 0.5 * (vel_east_mps + last_east)
+        reports: list[UpdateReport] = []
+        start = cursor = self.t_s
+        while self._pending and self._pending[0][0] < t_s - SAME_TIME_TOLERANCE_S:
+            frame_t_s, observations = self._pending.popleft()
+            part = frame_t_s - cursor
+            if part > SAME_TIME_TOLERANCE_S:
+                self.predict_velocity(vel_north_mps, vel_east_mps, yaw_rate_rad_s, part,
+                                      var_scale=dt / part)
+                cursor = frame_t_s
+            self._frame_timing_s = FRAME_TIMING_UNCERTAINTY_S
+            reports.extend(self.observe(observations))
+            self._frame_timing_s = 0.0
+        rest = t_s - cursor
+        self.predict_velocity(vel_north_mps, vel_east_mps, yaw_rate_rad_s, rest,
+                              var_scale=1.0 if cursor == start else dt / rest)
+        self.correct_yaw(yaw_rad)
         self.t_s, self._yaw_rad = t_s, yaw_rad
         return reports + self._release()
 
@@ -173,6 +236,41 @@ class Navigator:
         if dt_s > 0.0:
             self._turn_rate_rad_s = abs(heading_change_rad) / dt_s
 
+    def predict_velocity(self, vel_north_mps: float, vel_east_mps: float, yaw_rate_rad_s: float,
+                         dt_s: float, var_scale: float = 1.0) -> None:
+        """The multicopter model's predict (see EkfSlam.predict_velocity)."""
+        self.slam.predict_velocity(vel_north_mps, vel_east_mps, yaw_rate_rad_s, dt_s,
+                                   self.options.velocity_noise, var_scale)
+        self.clock_s += max(dt_s, 0.0)
+        self._dr_pose = move_velocity(self._dr_pose, vel_north_mps, vel_east_mps, yaw_rate_rad_s,
+                                      dt_s)
+        if dt_s > 0.0:
+            self._turn_rate_rad_s = abs(yaw_rate_rad_s)
+
+    def correct_yaw(self, yaw_rad: float) -> UpdateReport:
+        """The autopilot's yaw as a measurement of the yaw state; the dead reckoning takes it."""
+        report = self.slam.update_yaw(yaw_rad, self.options.yaw_sigma_rad,
+                                      self.options.yaw_gate_nis)
+        self.monitor.add(self.clock_s, report.nis, 1)
+        self._dr_pose[2] = wrap_angle(yaw_rad)
+        return report
+
+    def correct_position(self, north_m: float, east_m: float, sigma_m: float) -> UpdateReport | None:
+        """Fuse the autopilot's horizontal position (sigma_m per axis), at most once per
+        ``options.position_period_s``: its error is slow (a GPS's), so fixes closer together
+        would be counted as independent when they are not. None: not due yet."""
+        if not (math.isfinite(north_m) and math.isfinite(east_m) and sigma_m > 0.0):
+            self._reject("position_not_finite")
+            return None
+        if self._last_fix_s is not None \
+                and self.clock_s - self._last_fix_s < self.options.position_period_s - 1e-6:
+            return None
+        self._last_fix_s = self.clock_s
+        report = self.slam.update_position(north_m, east_m, sigma_m, self.options.position_gate_nis)
+        self.monitor.add(self.clock_s, report.nis, 2)
+        self.position_fixes["fused" if report.action == "position" else "refused"] += 1
+        return report
+
     def observe(self, observations: list[Observation]) -> list[UpdateReport]:
         """One camera frame: static landmarks update the SLAM state, movers only their tracks.
 
@@ -199,7 +297,10 @@ class Navigator:
             return self._observe_anonymous(obs, used)
         if oid in self.movers.by_obstacle_id:
             return self._update_mover(self.movers.by_obstacle_id[oid], obs)
-        report = slam.update(obs, exclude=used, landmark_only=oid in self._young)
+        young = oid in self._young
+        report = slam.update(obs, exclude=used, landmark_only=young)
+        if not young and report.action in ("updated", "outlier"):
+            self.monitor.add(self.clock_s, report.nis, 2)
         if report.action == "added":
             self._young[oid] = _Young()
         self._note_young(oid, obs, report.action)
@@ -228,6 +329,8 @@ class Navigator:
             if nis[best] <= slam.gates.accept_nis:
                 key = slam.landmark_ids()[best]
                 report = slam.update_landmark(z, best, landmark_only=key in self._young)
+                if key not in self._young:
+                    self.monitor.add(self.clock_s, report.nis, 2)
                 self._note_young(key, obs, report.action)
                 return report
         key = self._moved_young(place(self._dr_pose, z))
@@ -255,8 +358,11 @@ class Navigator:
             young.points.append(place(self._dr_pose, np.array([obs.range_m, obs.bearing_rad])))
             # A frame placed with an interpolated heading (its own odometry sample was lost) or
             # with a later one (it came late) may be misplaced sideways while the vehicle turns.
+            # The multicopter's dead-reckoned yaw is the autopilot's, noisy per sample.
+            yaw_sigma = self.options.yaw_sigma_rad \
+                if self.options.motion_model == "velocity_ned" else 0.0
             young.sigmas.append(math.hypot(self._point_sigma_m, obs.range_m * self._turn_rate_rad_s
-                                           * self._frame_timing_s))
+                                           * self._frame_timing_s, obs.range_m * yaw_sigma))
             young.last_obs = obs
 
     def _moved_young(self, dr_point: np.ndarray) -> int | None:
@@ -287,23 +393,40 @@ class Navigator:
         params = self.mover_params
         noise = self.slam.noise
         detected = []
+        crab = self._crab_speed()
         for oid, young in list(self._young.items()):
-            if self.clock_s - young.times[0] > params.probation_s:
-                del self._young[oid]             # watched long enough: static from now on
+            if self.clock_s - young.times[0] > params.probation_s \
+                    and len(young.times) >= self.options.established_sightings:
+                del self._young[oid]             # watched long enough: established, static
                 continue
             # Only the motion test judges a young landmark: refused outliers early on are more
             # often a poor pose at the frame's time (a lost sample under packet loss) than motion.
             moving = False
             if young.times[-1] - young.times[0] >= params.min_span_s:
                 velocity, sigma = apparent_velocity(np.array(young.times), np.array(young.points),
-                                                    max(young.sigmas), noise.speed_sigma_mps,
+                                                    max(young.sigmas), self._dr_speed_sigma_mps(),
                                                     noise.reference_dt_s)
-                speed = float(np.hypot(*velocity))
+                # What a static obstacle seems to do: the dead reckoning's own drift (sigma) and,
+                # for the unicycle, the vehicle's sideways motion it does not model (crab).
+                speed = float(np.hypot(*velocity)) - crab
                 moving = speed > params.speed_threshold_mps and speed > params.speed_sigmas * sigma
             if moving:
                 self._demote(oid, young.last_obs)
                 detected.append(UpdateReport("mover_detected", None, None, None, oid))
         return detected
+
+    def _dr_speed_sigma_mps(self) -> float:
+        if self.options.motion_model == "velocity_ned":
+            vel = self.options.velocity_noise
+            return max(vel.vel_north_sigma_mps, vel.vel_east_sigma_mps)
+        return self.slam.noise.speed_sigma_mps
+
+    def _crab_speed(self) -> float:
+        """The largest unmodelled sideways speed over the probation window (paper model)."""
+        horizon = self.clock_s - self.mover_params.probation_s - self.mover_params.min_span_s
+        while self._crab_mps and self._crab_mps[0][0] < horizon:
+            self._crab_mps.popleft()
+        return max((c for _, c in self._crab_mps), default=0.0)
 
     def _world_point(self, obs: Observation) -> tuple[np.ndarray, np.ndarray]:
         return world_measurement(self.slam.pose, self.slam.pose_cov,
@@ -333,6 +456,17 @@ class Navigator:
             rel_covs = np.concatenate([rel_covs, [m.position_cov + pose_cov for m in movers]])
         return positions, velocities, rel_covs, movers
 
+    def assess(self) -> Consistency:
+        """The consistency monitor's verdict now; state changes are kept in ``health_changes``."""
+        health = self.monitor.assess(self.clock_s, self.slam.pose_cov)
+        if self.health is None or health.state != self.health.state:
+            self.health_changes.append(health)
+        self.health = health
+        return health
+
+    def _moderate(self, command: GuidanceCommand) -> GuidanceCommand:
+        return moderate(command, self.assess(), self.options, float(self.slam.mean[2]))
+
     def _key(self, index: int | None, movers: list) -> tuple | None:
         """A stable name for obstacle row ``index``: landmark ids shift as movers leave the map."""
         if index is None:
@@ -356,6 +490,7 @@ class Navigator:
         else:
             command = guide_cone(pose, self.goal, obstacles, rel_covs, self.params, t_s, velocities)
         self._last_heading = command.heading_rad
+        command = self._moderate(command)
         key = self._key(command.urgent_index, movers)
         change = None
         if key != self._urgent:

@@ -41,7 +41,7 @@ def test_update_matches_hand_worked_step():
 def test_matches_dense_textbook_filter_to_1e9():
     rng = np.random.default_rng(3)
     pose0, cov0 = np.array([1.0, 2.0, 0.3]), np.diag([0.2, 0.3, 0.01])
-    fast = EkfSlam(pose0, cov0, NOISE, AssociationGates(outlier_nis=1e12))
+    fast = EkfSlam(pose0, cov0, NOISE, AssociationGates(outlier_nis=1e12, pose_correction_nis=1e12))
     dense = DenseEkfSlam(pose0, cov0, NOISE.speed_sigma_mps, NOISE.heading_change_sigma_rad,
                          NOISE.reference_dt_s, NOISE.range_sigma_m, NOISE.bearing_sigma_rad)
     landmarks = rng.uniform(-30, 30, size=(12, 2))

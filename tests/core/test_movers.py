@@ -167,3 +167,47 @@ def test_static_worlds_only_differ_by_the_probation_of_new_landmarks(monkeypatch
         assert abs(a["min_clearance_m"] - b["min_clearance_m"]) < 0.2
     errors = [np.median([r["final_position_error_m"] for r in runs]) for runs in (with_probation, plain)]
     assert abs(errors[0] - errors[1]) < 0.2
+
+
+def paper_crab_probation(course_known: bool, crab_deg: float = 12.0):
+    """The paper's unicycle on a multicopter crabbing crab_deg, through the probation window only:
+    its dead reckoning flies along the yaw, so static obstacles seem to drift sideways."""
+    import math
+    base = load_scenario("config/scenarios/copter.yaml")
+    est = dataclasses.replace(base.estimator_config(), motion_model="paper", position_fusion="off")
+    noise = dataclasses.replace(base.noise, yaw_sigma_deg=0.01)      # a clean yaw, as the stub's
+    scenario = dataclasses.replace(base, estimator=est, noise=noise)
+    from companion.truth import TruthWorld
+    truth = TruthWorld(scenario, np.random.default_rng(5))
+    crab = math.radians(crab_deg)
+    velocity = 5.0 * np.array([math.cos(crab), math.sin(crab)])
+    truth.vel_ne_mps = velocity.copy()
+    nav = make_navigator(scenario)
+    for step in range(1, 29):                                        # 2.8 s < probation
+        odo = truth.step_copter(velocity, 0.0)
+        speed = math.hypot(odo.vel_north_mps, odo.vel_east_mps)
+        course = math.atan2(odo.vel_east_mps, odo.vel_north_mps) if course_known else None
+        nav.on_odometry(0.1 * step, speed, odo.yaw_rad, course)
+        if step % 2 == 0:
+            nav.on_observations(0.1 * step, truth.observe())
+    return nav
+
+
+def test_mover_test_allows_for_the_course_heading_difference():
+    assert paper_crab_probation(course_known=False).movers_detected >= 1
+    assert paper_crab_probation(course_known=True).movers_detected == 0
+
+
+def test_mover_thresholds_are_config_keys(tmp_path):
+    from companion.config import load_config
+    from companion.errors import ConfigError
+    text = open("config/companion.yaml").read().replace(
+        "  slow_factor: 0.5\n", "  slow_factor: 0.5\n  mover_speed_threshold_mps: 0.4\n"
+        "  mover_probation_s: 5.0\n  mover_strikes: 4\n")
+    path = tmp_path / "c.yaml"
+    path.write_text(text)
+    params = load_config(path).estimator.mover_params()
+    assert (params.speed_threshold_mps, params.probation_s, params.strikes_to_mover) == (0.4, 5.0, 4)
+    path.write_text(text.replace("mover_strikes: 4", "mover_strikes: 0"))
+    with pytest.raises(ConfigError, match=r"c\.yaml: estimator\.mover_strikes: expected an integer >= 1, got 0"):
+        load_config(path)

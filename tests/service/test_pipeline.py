@@ -248,8 +248,11 @@ def test_speed_is_clamped_to_the_configured_limit():
 
 
 def test_position_waits_for_the_attitude_of_its_own_time():
-    """The stub sends LOCAL_POSITION_NED before the ATTITUDE of the same time_boot_ms."""
-    p = Pipeline(config(require_camera=False), GOAL, record_track=True)
+    """The stub sends LOCAL_POSITION_NED before the ATTITUDE of the same time_boot_ms.
+    (The paper's model, whose yaw is the attitude's yaw exactly.)"""
+    cfg = config(require_camera=False)
+    cfg = dataclasses.replace(cfg, estimator=dataclasses.replace(cfg.estimator, motion_model="paper"))
+    p = Pipeline(cfg, GOAL, record_track=True)
     p.handle(0.0, hb())
     p.handle(0.0, codec.Attitude(1, 1, 1.0, 0.0, 0.0))
     p.handle(0.0, codec.LocalPosition(1, 1, 1.0, 20.0, 0.0, 5.0, 0.0))

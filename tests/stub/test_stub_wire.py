@@ -65,7 +65,7 @@ def test_every_emitted_message_packs_and_angles_stay_in_range():
     dets = camera.observe(0.0, 0.0, 0.0, [(1, 20.0, 0.0, 2.0)], SC.sensor,
                           np.random.default_rng(0))
     msgs = [telemetry.heartbeat_autopilot(4, True), telemetry.sys_status(True, True, 12600, 150, 99),
-            telemetry.system_time(1.0, 1.7e9), telemetry.attitude(1.0, odom, odom.yaw_rad),
+            telemetry.system_time(1.0, 1.7e9), telemetry.attitude(1.0, odom.yaw_rad, odom.yaw_rate_rad_s),
             telemetry.local_position_ned(1.0, odom, 1.0, 2.0),
             telemetry.global_position_int(1.0, odom, 1.0, 2.0, origin, 0.0),
             telemetry.home_position(origin, 20.0, 0.0, 0.0, 1.0), telemetry.autopilot_version(),
@@ -78,7 +78,7 @@ def test_every_emitted_message_packs_and_angles_stay_in_range():
     for m in msgs:
         out = dec.decode(bytearray(m.pack(enc)))
         assert out.get_type() == m.get_type()
-    att = dec.decode(bytearray(telemetry.attitude(1.0, odom, odom.yaw_rad).pack(enc)))
+    att = dec.decode(bytearray(telemetry.attitude(1.0, odom.yaw_rad, odom.yaw_rate_rad_s).pack(enc)))
     assert -math.pi < att.yaw <= math.pi
     gpi = dec.decode(bytearray(telemetry.global_position_int(1.0, odom, 1.0, 2.0, origin,
                                                              0.0).pack(enc)))

@@ -1,0 +1,71 @@
+"""How the navigator estimates (motion model, fusion, probation) and how it acts on its health.
+
+``moderate`` is the arrival rule and the reaction to the consistency monitor's state, applied to
+every guidance command: pure, so a test can say why a command was changed.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+from companion.core.consistency import Consistency, MonitorParams, chi2_quantile
+from companion.core.ekf_slam import VelocityNoise, chi2_2dof_quantile
+from companion.core.guidance import GuidanceCommand
+
+MOTION_MODELS = ("paper", "velocity_ned")
+REACTIONS = ("none", "slow", "hold")
+
+
+@dataclass(frozen=True)
+class EstimatorOptions:
+    """How the navigator estimates and how it reacts to its own health.
+
+    motion_model: 'paper' (the unicycle: speed along the yaw, the yaw difference as the heading
+    change) or 'velocity_ned' (a multicopter: the autopilot's NED velocity, the yaw a state of its
+    own driven by the yaw rate and corrected by the autopilot's yaw, ``yaw_sigma_rad``).
+    Position fixes (``correct_position``) are fused at most once per ``position_period_s``.
+    A landmark corrects the pose only once established: past probation and seen
+    ``established_sightings`` times. Arrival needs the pose's 2-sigma radius within
+    ``arrival_tolerance_m``. Reactions to 'degraded' / 'lost': 'none', 'slow' (speed times
+    ``slow_factor``) or 'hold'.
+    """
+    motion_model: str = "paper"
+    velocity_noise: VelocityNoise = VelocityNoise(0.1, 0.1, math.radians(0.5))
+    yaw_sigma_rad: float = math.radians(2.0)
+    yaw_gate_nis: float = chi2_quantile(0.99999, 1)
+    position_gate_nis: float = chi2_2dof_quantile(0.99999)
+    position_period_s: float = 1.0
+    established_sightings: int = 5
+    arrival_tolerance_m: float = 2.0
+    monitor: MonitorParams = MonitorParams()
+    degraded_reaction: str = "slow"
+    lost_reaction: str = "hold"
+    slow_factor: float = 0.5
+
+    def __post_init__(self) -> None:
+        if self.motion_model not in MOTION_MODELS:
+            raise ValueError(f"unknown motion model {self.motion_model!r}")
+        if self.degraded_reaction not in REACTIONS or self.lost_reaction not in REACTIONS:
+            raise ValueError(f"reactions are one of {REACTIONS}")
+
+
+def moderate(command: GuidanceCommand, health: Consistency, options: EstimatorOptions,
+             yaw_rad: float) -> GuidanceCommand:
+    """Arrival only with the pose known well enough; the configured reaction to bad health.
+
+    'arrival_uncertain': inside the goal radius but the pose's 2-sigma radius exceeds the arrival
+    tolerance: hold there (speed 0) and say so, do not declare arrival. Degraded or lost: the
+    configured reaction, 'slow' (speed x slow_factor) or 'hold' (speed 0 at the current yaw).
+    """
+    if command.mode == "arrived":
+        if health.radius_2sigma_m > options.arrival_tolerance_m:
+            return replace(command, mode="arrival_uncertain")
+        return command
+    reaction = {"degraded": options.degraded_reaction,
+                "lost": options.lost_reaction}.get(health.state, "none")
+    if reaction == "hold":
+        return replace(command, speed_mps=0.0, heading_rad=yaw_rad,
+                       mode=f"hold: estimator {health.state}")
+    if reaction == "slow":
+        return replace(command, speed_mps=command.speed_mps * options.slow_factor)
+    return command
