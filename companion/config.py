@@ -255,10 +255,10 @@ class EstimatorConfig:
     motion_model: Literal["paper", "velocity_ned"] = "velocity_ned"
     vel_north_sigma_mps: float = 0.1
     vel_east_sigma_mps: float = 0.1
-    yaw_rate_sigma_deg_s: float = 0.5
+    yaw_rate_sigma_deg_s: float = 0.86             # EKF3 EK3_GYRO_P_NSE = 0.015 rad/s
     yaw_sigma_deg: float = 2.0
     position_fusion: Literal["auto", "on", "off"] = "auto"
-    position_sigma_m: float | None = None
+    position_sigma_m: float | None = 4.4          # null: from GPS_RAW_INT h_acc or HDOP
     position_sigma_per_hdop_m: float = 1.0
     position_period_s: float = 1.0
     max_hdop: float = 2.0
