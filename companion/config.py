@@ -375,21 +375,28 @@ class Scenario:
                                  f"({self.avoidance.safety_distance_m} m) of obstacle {obs.id}: "
                                  "no safe path can end there")
 
-    def estimator_config(self) -> EstimatorConfig:
+    def estimator_config(self, flown_as: str | None = None) -> EstimatorConfig:
         """The filter's settings: the scenario's own, else matched to its vehicle, noise and
-        sensor (the unicycle gets the paper's model, the multicopter the velocity model)."""
+        sensor (the unicycle gets the paper's model, the multicopter the velocity model).
+
+        ``flown_as='multicopter'``: the vehicle that flies the scenario is a multicopter whatever
+        ``vehicle.kind`` says (sitl-stub and ArduCopter fly GUIDED's velocity with their own
+        yaw, take off and hover): the velocity model, its per-axis sigma covering a unicycle
+        scenario's speed noise (the stub puts it along the heading, forward when hovering)."""
         if self.estimator is not None:
             return self.estimator
         noise = self.noise
-        copter = self.vehicle.kind == "multicopter"
+        copter = self.vehicle.kind == "multicopter" or flown_as == "multicopter"
+        velocity_sigma_mps = noise.velocity_sigma_mps if self.vehicle.kind == "multicopter" \
+            else math.hypot(noise.velocity_sigma_mps, noise.speed_sigma_mps)
         return EstimatorConfig(
             speed_sigma_mps=noise.speed_sigma_mps,
             heading_change_sigma_deg=noise.heading_change_sigma_deg,
             reference_dt_s=self.vehicle.dt_s, range_sigma_m=self.sensor.range_sigma_m,
             bearing_sigma_deg=self.sensor.bearing_sigma_deg,
             motion_model="velocity_ned" if copter else "paper",
-            vel_north_sigma_mps=max(noise.velocity_sigma_mps, 1e-6),
-            vel_east_sigma_mps=max(noise.velocity_sigma_mps, 1e-6),
+            vel_north_sigma_mps=max(velocity_sigma_mps, 1e-6),
+            vel_east_sigma_mps=max(velocity_sigma_mps, 1e-6),
             yaw_rate_sigma_deg_s=max(noise.yaw_rate_sigma_deg_s, 1e-6),
             yaw_sigma_deg=max(noise.yaw_sigma_deg, 1e-6),
             position_fusion="auto" if copter else "off",

@@ -81,7 +81,7 @@ def demo_config(scenario: Scenario, base_path: str = "config/companion.yaml",
         base.commanding, cruise_speed_mps=scenario.vehicle.speed_mps,
         max_speed_mps=max(base.commanding.max_speed_mps, scenario.vehicle.speed_mps),
         max_turn_rate_deg_s=scenario.vehicle.max_turn_rate_deg_s)
-    return dataclasses.replace(base, estimator=scenario.estimator_config(),
+    return dataclasses.replace(base, estimator=scenario.estimator_config(flown_as="multicopter"),
                                avoidance=scenario.avoidance, commanding=commanding,
                                goal=GoalConfig(goal.north_m, goal.east_m, goal.radius_m),
                                flight=dataclasses.replace(base.flight, takeoff_alt_m=TAKEOFF_ALT_M))

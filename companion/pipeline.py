@@ -572,8 +572,9 @@ class Pipeline:
             self.vertical.reset()
             self._count(f"no_setpoint_{decision.phase.replace(' ', '_')}")
             return
-        setpoint = dataclasses.replace(setpoint,
-                                       vel_down_mps=self.vertical.vel_down_mps(self.phase.up_m))
+        if setpoint.reason != "stop":     # the shutdown stop: vz = 0, ArduCopter holds there
+            setpoint = dataclasses.replace(
+                setpoint, vel_down_mps=self.vertical.vel_down_mps(self.phase.up_m))
         verdict = self.gate.check(setpoint)
         if not verdict.passed:
             self._count(f"setpoint_refused: {verdict.reason}")

@@ -96,6 +96,8 @@ class Simulation:
         # Draw every step, even at rest, so the streams do not depend on arming history.
         draws = self._rng_physics.normal(0.0, 1.0, 6)
         speed_noise = float(draws[0]) * noise.speed_sigma_mps
+        if self.scenario.vehicle.kind == "multicopter":
+            speed_noise = 0.0         # its odometry noise is per NED axis (velocity_sigma_mps)
         heading_noise = float(draws[1]) * noise.heading_change_sigma_rad
         vel_noise = (float(draws[2]) * noise.velocity_sigma_mps,
                      float(draws[3]) * noise.velocity_sigma_mps)

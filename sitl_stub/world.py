@@ -88,6 +88,7 @@ class VehicleConfig:
     max_turn_rate_rad_s: float
     max_accel_mps2: float
     dt_s: float
+    kind: str = "unicycle"      # the odometry's noise model (the flight is ArduCopter's either way)
 
 
 @dataclass(frozen=True)
@@ -295,8 +296,10 @@ VEHICLE_KINDS = ("unicycle", "multicopter")
 
 
 def _parse_vehicle(r: _Reader) -> VehicleConfig:
-    # The stub always flies ArduCopter's GUIDED semantics (velocity, yaw turning on its own);
-    # `kind` is the in-process truth's choice (companion simulate), checked here and not used.
+    # The stub always flies ArduCopter's GUIDED semantics (velocity, yaw turning on its own).
+    # `kind` chooses the odometry's noise, as companion simulate's truth does: 'unicycle', speed
+    # noise along the heading (the paper's Q); 'multicopter', white noise per NED velocity axis
+    # only (noise.velocity_sigma_mps; speed_sigma_mps is then unused).
     kind = r._get("kind", "unicycle")
     if kind not in VEHICLE_KINDS:
         raise r.error(f"expected one of {', '.join(VEHICLE_KINDS)}, got {_show(kind)}", "kind")
@@ -304,7 +307,7 @@ def _parse_vehicle(r: _Reader) -> VehicleConfig:
         speed_mps=r.number("speed_mps", minimum=0, strict_min=True),
         max_turn_rate_rad_s=math.radians(r.number("max_turn_rate_deg_s", minimum=0, strict_min=True)),
         max_accel_mps2=r.number("max_accel_mps2", minimum=0, strict_min=True),
-        dt_s=r.number("dt_s", minimum=0, strict_min=True, maximum=1.0))
+        dt_s=r.number("dt_s", minimum=0, strict_min=True, maximum=1.0), kind=kind)
     r.finish()
     return cfg
 
