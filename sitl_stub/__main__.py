@@ -27,7 +27,7 @@ from .links import Endpoint, LinkError, LinkHub, open_links, parse_endpoint
 from .lockstep import DEFAULT_TIMEOUT_S, LockstepGate, LockstepOptions, odometry_last
 from .params import ParamTable
 from .sim import Simulation
-from .telemetry import MODE_NAMES
+from .telemetry import COMP_AUTOPILOT, MODE_NAMES
 from .world import Scenario, ScenarioError, load_scenario, obstacles_at
 
 log = logging.getLogger("sitl_stub")
@@ -35,6 +35,8 @@ log = logging.getLogger("sitl_stub")
 EXIT_USAGE = 2
 INBOX_LIMIT = 10_000
 MAX_LAG_S = 0.5   # wall seconds behind schedule before the schedule is rebased (logged)
+RESEND_BEFORE_PEER_S = 1.0
+RESENT_BEFORE_PEER = (0, 30, 32)     # HEARTBEAT, ATTITUDE, LOCAL_POSITION_NED
 
 
 class ShutdownRequested(Exception):
@@ -232,6 +234,12 @@ class Lockstep:
     def _on_client(self, name: str) -> None:
         self._hub.broadcast(self._burst, only=name)
 
+    def _resend_sample(self) -> None:
+        """Before the first peer: the step's heartbeat, ATTITUDE and position again, in case the
+        first ones were lost (--drop-rate); duplicates are harmless (same time, not newer)."""
+        self._hub.broadcast([(comp, msg) for comp, msg in self._burst
+                             if msg.id in RESENT_BEFORE_PEER and comp == COMP_AUTOPILOT])
+
     async def wait_for_peer(self, t_s: float, handle_inbox) -> bool:
         """Until the peers have caught up; False (and free-running) after the bounded wait.
         Messages that arrive meanwhile are handled at once, at the current time."""
@@ -251,15 +259,17 @@ class Lockstep:
                 break
             self._wake.clear()
             try:
-                async with asyncio.timeout(remaining):
+                async with asyncio.timeout(remaining if gate.has_peer
+                                           else min(remaining, RESEND_BEFORE_PEER_S)):
                     await self._wake.wait()
             except TimeoutError:
-                pass
+                if not gate.has_peer:
+                    self._resend_sample()
         gate.timeouts += 1
         gate.free_running = True
         log.warning("lock-step: %s after %.1f s wall at t=%.1f s (simulated): free-running at "
                     "speedup %g until it catches up",
-                    "the companion did not answer" if gate.has_peer else "no companion ODOMETRY",
+                    f"no answer ({gate.lagging()})" if gate.has_peer else "no companion ODOMETRY",
                     timeout_s, t_s, self._speedup)
         return False
 

@@ -56,6 +56,7 @@ class LockstepGate:
     def __init__(self) -> None:
         self._answered_ms: dict[str, int] = {}            # peer -> latest ODOMETRY time
         self._delivered_ms: dict[str, dict[int, int]] = {}  # client -> msg id -> latest time
+        self._whole_ms: dict[str, int] = {}       # client -> latest time both parts went out
         self.free_running = False
         self.waits = 0            # steps that had to wait for a peer
         self.timeouts = 0         # waits that ran out
@@ -67,7 +68,11 @@ class LockstepGate:
     def on_delivered(self, client: str, msg) -> None:
         """A message went out to ``client`` (not dropped)."""
         if msg.id in SAMPLE_IDS:
-            self._delivered_ms.setdefault(client, {})[msg.id] = int(msg.time_boot_ms)
+            t_ms = int(msg.time_boot_ms)
+            sent = self._delivered_ms.setdefault(client, {})
+            sent[msg.id] = t_ms
+            if all(sent.get(msg_id) == t_ms for msg_id in SAMPLE_IDS):
+                self._whole_ms[client] = t_ms
 
     def on_odometry(self, client: str, msg) -> None:
         t_ms = int(round(msg.time_usec / 1000.0))
@@ -76,11 +81,16 @@ class LockstepGate:
         self._answered_ms[client] = max(t_ms, self._answered_ms.get(client, t_ms))
 
     def awaited_ms(self, client: str) -> int | None:
-        """Time of the latest whole odometry sample delivered to ``client``, if any."""
-        sent = self._delivered_ms.get(client, {})
-        if not all(msg_id in sent for msg_id in SAMPLE_IDS):
-            return None
-        return min(sent[msg_id] for msg_id in SAMPLE_IDS)
+        """Time of the latest whole odometry sample (both parts, same time) delivered to
+        ``client``, if any: half a sample is not answered until the next whole one."""
+        return self._whole_ms.get(client)
+
+    def lagging(self) -> str:
+        """Which peers are behind, for the log: 'client answered 1.200 s of 1.300 s'."""
+        return ", ".join(f"{client} answered {answered / 1000:.3f} s of "
+                         f"{self.awaited_ms(client) / 1000:.3f} s"
+                         for client, answered in self._answered_ms.items()
+                         if (self.awaited_ms(client) or 0) > answered) or "none"
 
     def caught_up(self) -> bool:
         """Every peer has answered everything due (False while there is no peer at all)."""
