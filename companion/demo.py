@@ -253,7 +253,7 @@ def flight_timing(samples: list, t0_s: float, t_arrival_s: float | None) -> dict
     """Wall seconds of the flight, from the first vehicle time after ``t0_s`` to the arrival
     (process start-up and the lock-step hold for the companion not counted), and the real-time
     factor; None where the samples cannot tell."""
-    none = {"flight_wall_s": None, "real_time_factor": None}
+    none = {"flight_sim_s": None, "flight_wall_s": None, "real_time_factor": None}
     moving = [(w, t) for w, t in samples if t > t0_s + 1e-9]
     if t_arrival_s is None or not moving:
         return none
@@ -261,7 +261,7 @@ def flight_timing(samples: list, t0_s: float, t_arrival_s: float | None) -> dict
     end = next((w for w, t in moving if t >= t_arrival_s - 1e-9), None)
     if end is None or end <= wall0:
         return none
-    return {"flight_wall_s": round(end - wall0, 4),
+    return {"flight_sim_s": round(t_arrival_s - vehicle0, 6), "flight_wall_s": round(end - wall0, 4),
             "real_time_factor": round((t_arrival_s - vehicle0) / (end - wall0), 1)}
 
 

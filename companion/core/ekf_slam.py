@@ -301,9 +301,10 @@ class EkfSlam:
         H is (2K, 3+2K) on the pose and the K landmarks' columns; P H^T (N, 2K) is one gather
         and one product; S (2K, 2K). Returns (action, innovation, NIS) per observation.
         """
-        mean, k_obs = self._mean_buf, len(indices)
-        starts = POSE_DIM + LANDMARK_DIM * indices
-        d = mean[np.stack((starts, starts + 1), axis=1)] - mean[:2]            # (K, 2)
+        mean, k_obs, n = self._mean_buf, len(indices), self._dim
+        rows = np.arange(k_obs)
+        lm_cols = (POSE_DIM + LANDMARK_DIM * indices[:, None] + np.arange(2)).ravel()  # (2K,)
+        d = mean[lm_cols].reshape(k_obs, 2) - mean[:2]                        # (K, 2)
         range_sq = np.einsum("ij,ij->i", d, d)
         range_m = np.sqrt(range_sq)
         innovation = np.empty((k_obs, 2))
@@ -312,34 +313,44 @@ class EkfSlam:
         lm = np.empty((k_obs, 2, 2))                                 # H_m of each landmark
         lm[:, 0, 0], lm[:, 0, 1] = d[:, 0] / range_m, d[:, 1] / range_m
         lm[:, 1, 0], lm[:, 1, 1] = -d[:, 1] / range_sq, d[:, 0] / range_sq
-        rows = np.arange(k_obs)
         jac = np.zeros((k_obs, 2, POSE_DIM + 2 * k_obs))             # H as (K, 2, 3+2K)
-        jac[rows, :, :2] = -lm
-        jac[rows, 1, 2] = -1.0
-        jac[rows, :, POSE_DIM + 2 * rows] = lm[:, :, 0]
-        jac[rows, :, POSE_DIM + 2 * rows + 1] = lm[:, :, 1]
+        jac[:, :, :2] = -lm
+        jac[:, 1, 2] = -1.0
+        jac[:, :, POSE_DIM:].reshape(k_obs, 2, k_obs, 2)[rows, :, rows, :] = lm
         jac = jac.reshape(2 * k_obs, -1)
-        cols = np.concatenate(([0, 1, 2], np.stack((starts, starts + 1), axis=1).ravel()))
-        p_ht = self.cov[:, cols] @ jac.T                                     # (N, 2K)
-        s = jac @ p_ht[cols] + np.kron(np.eye(k_obs), self._meas_cov)
-        blocks = s.reshape(k_obs, 2, k_obs, 2)[rows, :, rows, :]             # (K, 2, 2)
-        nis = np.einsum("ki,ki->k", innovation,
-                        np.linalg.solve(blocks, innovation[:, :, None])[:, :, 0])
+        cols = np.concatenate((np.arange(POSE_DIM), lm_cols))
+        p_ht = self._cov_buf[:n, cols] @ jac.T                               # (N, 2K)
+        s = jac @ p_ht[cols]
+        s4 = s.reshape(k_obs, 2, k_obs, 2)
+        s4[rows, :, rows, :] += self._meas_cov
+        blocks = s4[rows, :, rows, :]                                         # (K, 2, 2)
+        det = blocks[:, 0, 0] * blocks[:, 1, 1] - blocks[:, 0, 1] * blocks[:, 1, 0]
+        nis = (blocks[:, 1, 1] * innovation[:, 0] ** 2
+               - (blocks[:, 0, 1] + blocks[:, 1, 0]) * innovation[:, 0] * innovation[:, 1]
+               + blocks[:, 0, 0] * innovation[:, 1] ** 2) / det
         ok = nis <= self.gates.outlier_nis
-        out = [("updated" if good else "outlier", (float(v[0]), float(v[1])), float(n))
-               for good, v, n in zip(ok, innovation, nis)]
+        out = [("updated" if good else "outlier", (float(v[0]), float(v[1])), float(q))
+               for good, v, q in zip(ok.tolist(), innovation, nis.tolist())]
         if not ok.any():
             return out
         if not ok.all():
             keep = np.repeat(ok, 2)
             p_ht, s, innovation = p_ht[:, keep], s[np.ix_(keep, keep)], innovation[ok]
-        gain = p_ht @ np.linalg.inv(s)                                         # (N, 2K)
+        width = p_ht.shape[1]
+        # [K B] and [B K] in Fortran order, as dgemm takes them (no copies in the call)
+        left = np.empty((n, 2 * width), order="F")
+        right = np.empty((n, 2 * width), order="F")
+        gain, half = left[:, :width], right[:, :width]
+        np.matmul(p_ht, np.linalg.inv(s), out=gain)                          # K, (N, 2K)
         self._mean_buf += gain @ innovation.ravel()
         self._mean_buf[2] = wrap_angle(self._mean_buf[2])
-        half = p_ht - 0.5 * gain @ s
+        np.matmul(gain, s, out=half)
+        half *= -0.5
+        half += p_ht                                                          # B, (N, 2K)
+        left[:, width:] = half
+        right[:, width:] = gain
         # as in _correct: P -= [K B] [B K]^T, one pass, in place on P^T (P is symmetric)
-        dgemm(-1.0, np.concatenate((half, gain), axis=1), np.concatenate((gain, half), axis=1),
-              beta=1.0, c=self._cov_buf.T, trans_b=1, overwrite_c=1)
+        dgemm(-1.0, right, left, beta=1.0, c=self._cov_buf.T, trans_b=1, overwrite_c=1)
         return out
 
     def set_landmark_id(self, index: int, obstacle_id: int) -> None:

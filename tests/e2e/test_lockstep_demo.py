@@ -9,7 +9,7 @@ import sys
 
 from tests.e2e.test_demo_replay import companion
 
-WALL_CLOCK_KEYS = ("wall_time_s", "flight_wall_s", "real_time_factor")
+WALL_CLOCK_KEYS = ("wall_time_s", "flight_sim_s", "flight_wall_s", "real_time_factor")
 BUSY_S = 120.0      # each busy process ends by itself after this, even if the test dies
 BUSY = f"import time\nend = time.monotonic() + {BUSY_S}\nwhile time.monotonic() < end: pass\n"
 
