@@ -1,4 +1,4 @@
-"""Soak (slow): a long simulated flight at high speedup; the daemon's memory stays steady."""
+"""Soak (slow): a long simulated flight in lock-step; the daemon's memory stays steady."""
 from __future__ import annotations
 
 import pytest
