@@ -5,7 +5,10 @@ so an ODOMETRY at t says "I have absorbed the odometry sample of t, and everythi
 it". A client becomes a peer with its first ODOMETRY. The stub waits, before each step, until
 every peer has answered the latest *whole* odometry sample (LOCAL_POSITION_NED and ATTITUDE)
 delivered to it, so with one sample per step it is never more than one step (one control period)
-ahead. A sample lost on the way (``--drop-rate``) is not waited for.
+ahead. A sample lost on the way (``--drop-rate``) is not waited for. A peer that answers only
+every n-th sample (a companion without ``--lockstep`` publishes ODOMETRY at 5 Hz) may lag by its
+own answer period less one sample: the stub never waits for an answer that will not come, and
+stays within one of the peer's control periods (logged once, as that loosens the lock).
 
 The wait is bounded in wall time: after ``timeout_s`` (``start_timeout_s`` for the first peer)
 the stub logs a warning and free-runs at ``--speedup``; it locks again as soon as the peers have
@@ -57,6 +60,8 @@ class LockstepGate:
         self._answered_ms: dict[str, int] = {}            # peer -> latest ODOMETRY time
         self._delivered_ms: dict[str, dict[int, int]] = {}  # client -> msg id -> latest time
         self._whole_ms: dict[str, int] = {}       # client -> latest time both parts went out
+        self._sample_gap_ms: int | None = None    # smallest gap between whole samples
+        self._answer_gap_ms: dict[str, int] = {}  # peer -> smallest gap between its answers
         self.free_running = False
         self.waits = 0            # steps that had to wait for a peer
         self.timeouts = 0         # waits that ran out
@@ -72,13 +77,26 @@ class LockstepGate:
             sent = self._delivered_ms.setdefault(client, {})
             sent[msg.id] = t_ms
             if all(sent.get(msg_id) == t_ms for msg_id in SAMPLE_IDS):
+                previous = self._whole_ms.get(client)
+                if previous is not None and t_ms > previous:
+                    self._sample_gap_ms = min(self._sample_gap_ms or t_ms - previous,
+                                              t_ms - previous)
                 self._whole_ms[client] = t_ms
 
     def on_odometry(self, client: str, msg) -> None:
         t_ms = int(round(msg.time_usec / 1000.0))
-        if client not in self._answered_ms:
+        previous = self._answered_ms.get(client)
+        if previous is None:
             log.info("lock-step peer: %s (first ODOMETRY at %.3f s)", client, t_ms / 1000.0)
-        self._answered_ms[client] = max(t_ms, self._answered_ms.get(client, t_ms))
+        elif t_ms > previous:
+            gap = min(self._answer_gap_ms.get(client, t_ms - previous), t_ms - previous)
+            if self._sample_gap_ms and gap > self._sample_gap_ms \
+                    and self._answer_gap_ms.get(client, 0) <= self._sample_gap_ms:
+                log.warning("lock-step peer %s answers every %.3f s, samples come every %.3f s: "
+                            "it may lag by one of its periods (is it running with --lockstep?)",
+                            client, gap / 1000.0, self._sample_gap_ms / 1000.0)
+            self._answer_gap_ms[client] = gap
+        self._answered_ms[client] = max(t_ms, previous if previous is not None else t_ms)
 
     def awaited_ms(self, client: str) -> int | None:
         """Time of the latest whole odometry sample (both parts, same time) delivered to
@@ -98,6 +116,11 @@ class LockstepGate:
             return False
         for client, answered in self._answered_ms.items():
             awaited = self.awaited_ms(client)
-            if awaited is not None and answered < awaited:
+            if awaited is not None and answered < awaited - self._slack_ms(client):
                 return False
         return True
+
+    def _slack_ms(self, client: str) -> int:
+        """How far behind the peer may be: 0 if it answers every sample."""
+        gap, sample = self._answer_gap_ms.get(client), self._sample_gap_ms
+        return max(0, gap - sample) if gap and sample else 0

@@ -125,3 +125,18 @@ def test_the_stub_waits_for_its_peer_then_free_runs_then_locks_again(tmp_path):
     finally:
         conn.close()
         assert stub.stop() == 0
+
+
+def test_a_peer_answering_every_other_sample_is_waited_for_loosely_never_forever():
+    gate = LockstepGate()
+    for t in range(0, 1100, 100):                 # samples every 100 ms, answers every 200 ms
+        gate.on_delivered("c", att(t))
+        gate.on_delivered("c", lpn(t))
+        if t % 200 == 0:
+            gate.on_odometry("c", odo(t))
+        assert gate.caught_up() or t == 100     # before the answer period is known: waits
+    gate.on_delivered("c", att(1100))
+    gate.on_delivered("c", lpn(1100))
+    gate.on_delivered("c", att(1200))
+    gate.on_delivered("c", lpn(1200))
+    assert not gate.caught_up()                 # two samples behind: more than its period
