@@ -1,17 +1,27 @@
-"""Estimator timings: predict, update, a predict-plus-ten-updates step, against the floor and
-the dense textbook filter (tests/core/dense_reference.py, the correctness oracle)."""
+"""Estimator timings: predict, update, a predict-plus-ten-updates step, a camera frame of ten
+observations (sequential and batched), against their floors and the dense textbook filter
+(tests/core/dense_reference.py, the correctness oracle).
+
+The floor of an update is the cheapest correct in-place update of the same rank: the one BLAS
+call the update itself makes (EkfSlam._correct: dgemm, P -= [K B][B K]^T, inner dimension 4 for
+the rank-2 correction of one range-bearing observation), alone, on a matrix of the same size and
+layout. A frame of K observations is measured against the floor of one rank-2K pass (the same
+call with inner dimension 4K), which is what EkfSlam.update_batch makes.
+"""
 from __future__ import annotations
 
 import math
 import time
 
 import numpy as np
+from scipy.linalg.blas import dgemm
 
 from companion.core.ekf_slam import AssociationGates, EkfSlam, Observation, SlamNoise
 from companion.core.geometry import observe
 from tests.core.dense_reference import DenseEkfSlam
 
 NOISE = SlamNoise(0.3, math.radians(0.02), 0.1, 0.1, math.radians(0.5))
+FRAME_OBSERVATIONS = 10
 
 
 def median_us(fn, reps: int) -> float:
@@ -42,16 +52,30 @@ def measure(landmarks: int, reps: int) -> dict:
         z = observe(slam.pose, truth[index]) + rng.normal(0.0, [0.05, 0.001])
         slam.update(Observation(z[0], z[1], index if with_id else None))
 
+    def prepared_update():
+        index = int(rng.integers(landmarks))
+        z = observe(slam.pose, truth[index]) + rng.normal(0.0, [0.05, 0.001])
+        obs = Observation(z[0], z[1], index)
+        return lambda: slam.update(obs)
+
     predict_us = median_us(lambda: slam.predict(1.0, 0.001, 0.1), reps * 4)
-    update_us = median_us(lambda: one_update(int(rng.integers(landmarks)), True), reps)
+    update_us = median_prepared_us(prepared_update, reps)      # drawing the report: untimed
 
-    n = slam.mean.size
-    cov = slam.cov.copy()
-    a, b = rng.normal(size=(n, 2)), rng.normal(size=(n, 2))
+    floor_us = floor_of(slam, 1, reps, rng)
+    k = min(FRAME_OBSERVATIONS, landmarks)
+    frame_floor_us = floor_of(slam, k, reps, rng)
 
-    def floor() -> None:                        # the bare in-place rank-2 update
-        cov.__isub__(a @ b.T)
-    floor_us = median_us(floor, reps)
+    def frame(batched: bool):
+        ids = rng.choice(landmarks, size=k, replace=False)
+        observations = []
+        for index in ids:
+            z = observe(slam.pose, truth[index]) + rng.normal(0.0, [0.05, 0.001])
+            observations.append(Observation(z[0], z[1], int(index)))
+        return lambda: slam.update_batch(observations) if batched else \
+            slam.update_frame(observations)
+
+    frame_sequential_us = median_prepared_us(lambda: frame(False), reps)
+    frame_batch_us = median_prepared_us(lambda: frame(True), reps)
 
     dense = DenseEkfSlam(slam.pose, slam.pose_cov, NOISE.speed_sigma_mps,
                          NOISE.heading_change_sigma_rad, NOISE.reference_dt_s,
@@ -72,7 +96,36 @@ def measure(landmarks: int, reps: int) -> dict:
     step10_landmarks_after = slam.landmark_count
     return {"landmarks": landmarks, "predict_us": predict_us, "update_us": update_us,
             "step10_us": step10_us, "step10_landmarks_after": step10_landmarks_after,
-            "floor_rank2_us": floor_us, "dense_update_us": dense_us}
+            "floor_us": floor_us, "dense_update_us": dense_us, "frame_observations": k,
+            "frame_sequential_us": frame_sequential_us, "frame_batch_us": frame_batch_us,
+            "frame_floor_us": frame_floor_us}
+
+
+def floor_of(slam: EkfSlam, observations: int, reps: int, rng) -> float:
+    """The update's own BLAS call alone, for a rank-2K correction (K observations), on a copy
+    of the filter's covariance (same size, same C layout, updated in place through its
+    transpose as _correct does). Signs alternate so the values stay bounded."""
+    cov = slam.cov.copy()
+    n, width = cov.shape[0], 4 * observations
+    left = rng.normal(size=(n, width)) * 1e-3
+    right = rng.normal(size=(n, width)) * 1e-3
+    sign = [1.0]
+
+    def call() -> None:
+        sign[0] = -sign[0]
+        dgemm(sign[0], right, left, beta=1.0, c=cov.T, trans_b=1, overwrite_c=1)
+    return median_us(call, reps)
+
+
+def median_prepared_us(prepare, reps: int) -> float:
+    """Median of ``prepare()()`` timings, preparing (drawing the observations) untimed."""
+    times = []
+    for _ in range(reps):
+        fn = prepare()
+        start = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - start)
+    return float(np.median(times) * 1e6)
 
 
 def run(quick: bool) -> list[dict]:

@@ -67,8 +67,11 @@ def _command(conn, command: int, *params: float, timeout_s: float = 15.0) -> Non
     raise RuntimeError(f"command {command} not accepted")
 
 
-def soak(minutes: float, speedup: float, scenario: Path, workdir: Path) -> SoakResult:
-    """Fly for ``minutes`` of wall time; RSS of the daemon at the first minute and at the end."""
+def soak(minutes: float, speedup: float, scenario: Path, workdir: Path,
+         lockstep: bool = True) -> SoakResult:
+    """Fly for ``minutes`` of wall time; RSS of the daemon at the first minute and at the end.
+    ``lockstep``: stub and daemon in lock-step (``speedup`` paces only the stub's fallback)."""
+    pace = ["--lockstep"] if lockstep else []
     config = yaml.safe_load((REPO / "config" / "companion.yaml").read_text())
     world = yaml.safe_load(scenario.read_text())
     config["goal"] = dict(world["world"]["goal"])
@@ -78,14 +81,14 @@ def soak(minutes: float, speedup: float, scenario: Path, workdir: Path) -> SoakR
     report_path = workdir / "report.json"
     stub = subprocess.Popen(
         [sys.executable, "-m", "sitl_stub", "--scenario", str(scenario), "--tcp", "127.0.0.1:0",
-         "--udp", "127.0.0.1:0", "--speedup", str(speedup)], stdout=subprocess.PIPE,
+         "--udp", "127.0.0.1:0", "--speedup", str(speedup), *pace], stdout=subprocess.PIPE,
         stderr=open(workdir / "stub.stderr", "w"), text=True, cwd=REPO)
     daemon = None
     try:
         tcp_port, udp_port = _ready_ports(stub)
         daemon = subprocess.Popen(
             [sys.executable, "-m", "companion", "run", "--connect", f"udpout:127.0.0.1:{udp_port}",
-             "--config", str(config_path), "--report", str(report_path)],
+             "--config", str(config_path), "--report", str(report_path), *pace],
             stdout=subprocess.DEVNULL, stderr=open(workdir / "companion.stderr", "w"), cwd=REPO)
         gcs = mavutil.mavlink_connection(f"tcp:127.0.0.1:{tcp_port}", source_system=255,
                                          source_component=190)
@@ -133,11 +136,15 @@ def soak(minutes: float, speedup: float, scenario: Path, workdir: Path) -> SoakR
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--minutes", type=float, default=5.0, help="wall minutes (default 5)")
-    parser.add_argument("--speedup", type=float, default=20.0)
+    parser.add_argument("--speedup", type=float, default=20.0,
+                        help="the stub's pace without lock-step (and its fallback with it)")
+    parser.add_argument("--no-lockstep", action="store_true",
+                        help="the stub on the wall clock at --speedup instead of lock-step")
     parser.add_argument("--scenario", type=Path, default=REPO / "config/scenarios/soak.yaml")
     args = parser.parse_args(argv)
     with tempfile.TemporaryDirectory(prefix="soak-") as tmp:
-        result = soak(args.minutes, args.speedup, args.scenario, Path(tmp))
+        result = soak(args.minutes, args.speedup, args.scenario, Path(tmp),
+                      lockstep=not args.no_lockstep)
     report = result.report
     track_t = report["track"]["t_s"]
     print(f"soak: {result.wall_s:.0f} s wall at speedup {args.speedup:g}, "

@@ -8,10 +8,15 @@ and the daemon's memory, all from one run of ``benchmarks/run.py``.
   t(first SET_POSITION_TARGET_LOCAL_NED sent after an OBSTACLE_DISTANCE_3D, before the next
   inbound message) - t(that OBSTACLE_DISTANCE_3D). Measured on the long corridor flight.
   Outside it: benchmarks/probe.py, a fake vehicle timing the setpoint's arrival (two hops).
-- Closed loop: the paper's scenario at several speedups. ``sim_s`` is arming to arrival in the
-  vehicle's time (the demo's score); ``wall_s`` is the same interval on the daemon's link clock,
-  read off its tlog (each vehicle message carries time_boot_ms and a link timestamp), so process
-  start-up, arming handshakes and the settle wait are excluded.
+- Closed loop: the paper's scenario at several speedups with the stub on the wall clock
+  (``--no-lockstep``). ``sim_s`` is arming to arrival in the vehicle's time (the demo's score);
+  ``wall_s`` is the same interval on the daemon's link clock, read off its tlog (each vehicle
+  message carries time_boot_ms and a link timestamp), so process start-up, arming handshakes and
+  the settle wait are excluded.
+- Closed loop in lock-step (the demo's default): as fast as stub and daemon go. The daemon's
+  tlog is on the vehicle clock there, so the wall time comes from the demo's ground station
+  (``flight_sim_s`` over ``flight_wall_s``: from the first step after the wait for the daemon to
+  the arrival; start-up excluded).
 - Replay: ``companion.replay.replay_tlog`` called in-process (no interpreter start-up) on the
   corridor flight's tlog, alternating with pymavlink parsing the same file, medians.
 - Memory: the daemon child's VmHWM (/proc), read every 20 ms while each demo runs.
@@ -43,6 +48,7 @@ OUR_COMPONENT = 191
 MIN_CLEARANCE_M = 9.5
 SPEEDUPS = (20, 50, 100, 200, 500)
 QUICK_SPEEDUPS = (50, 100)
+LOCKSTEP_RUNS, QUICK_LOCKSTEP_RUNS = 3, 2
 CORRIDOR_SPEEDUP = 20
 MEMORY_POLL_S = 0.02
 STOP_TIMEOUT_S = 20.0
@@ -69,6 +75,8 @@ class Flight:
     tlog_messages: int = 0
     max_stall_sim_s: float | None = None  # longest silence on the daemon's link clock, in vehicle s
     stub_fell_behind: bool = False
+    lockstep: bool = False
+    stub_free_ran: bool = False  # lock-step: the stub's bounded wait ran out at least once
     judged: bool = True          # the corridor flight is there for latency and replay only
     error: str | None = None
 
@@ -156,12 +164,15 @@ def _vm_hwm_kb(pid: int) -> int | None:
     return None
 
 
-def fly(scenario: Path, speedup: float, workdir: Path, name: str) -> tuple[Flight, Path]:
-    """One `companion demo`; returns its figures and the daemon's tlog."""
+def fly(scenario: Path, speedup: float, workdir: Path, name: str,
+        lockstep: bool = False) -> tuple[Flight, Path]:
+    """One `companion demo`; returns its figures and the daemon's tlog. Without ``lockstep``,
+    the stub runs on the wall clock at ``speedup``."""
     keep, tlog, out = workdir / name, workdir / f"{name}.tlog", workdir / f"{name}.json"
     proc = subprocess.Popen(
         [sys.executable, "-m", "companion", "demo", "--scenario", str(scenario),
-         "--speedup", str(speedup), "--tlog", str(tlog), "--keep", str(keep), "--json", str(out)],
+         "--speedup", str(speedup), "--tlog", str(tlog), "--keep", str(keep), "--json", str(out),
+         "--lockstep" if lockstep else "--no-lockstep"],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, stdin=subprocess.DEVNULL, cwd=ROOT)
     memory = PeakMemory(proc)
     memory.start()
@@ -176,7 +187,8 @@ def fly(scenario: Path, speedup: float, workdir: Path, name: str) -> tuple[Fligh
             proc.kill()
             stdout, stderr = proc.communicate()
         stderr = f"no arrival within {flight_timeout_s(speedup):.0f} s wall".encode()
-    flight = Flight(scenario.stem, speedup, proc.returncode, peak_rss_mb=memory.stop())
+    flight = Flight(scenario.stem, speedup, proc.returncode, peak_rss_mb=memory.stop(),
+                    lockstep=lockstep)
     if not out.exists():
         flight.error = (stderr or stdout).decode(errors="replace").strip()[-500:]
         return flight, tlog
@@ -187,6 +199,12 @@ def fly(scenario: Path, speedup: float, workdir: Path, name: str) -> tuple[Fligh
     flight.sim_s = summary["time_s"]
     flight.demo_wall_time_s = result["aggregate"]["wall_time_s"]
     flight.stub_fell_behind = "falling behind" in _read(keep / "sitl-stub.stderr")
+    if lockstep:
+        aggregate = result["aggregate"]
+        flight.stub_free_ran = "free-running" in _read(keep / "sitl-stub.stderr")
+        flight.sim_s, flight.wall_s = aggregate["flight_sim_s"], aggregate["flight_wall_s"]
+        _, _, flight.tlog_messages = link_clock(tlog)
+        return flight, tlog
     armed_s = _armed_at(keep / "truth.jsonl")
     boot_s, link_s, flight.tlog_messages = link_clock(tlog)
     if armed_s is not None and len(boot_s) > 1 and flight.sim_s is not None:
@@ -227,12 +245,25 @@ def closed_loop(flights: list[Flight]) -> dict:
         by_speedup.setdefault(f.speedup, []).append(f)
     passing = [s for s, fs in by_speedup.items() if all(f.passed and f.wall_s for f in fs)]
     if not passing:
-        return {"speedup": None, "sim_s": float("nan"), "wall_s": float("nan")}
+        return {"speedup": None, "sim_s": None, "wall_s": None}
     best = max(passing)
     fs = by_speedup[best]
     return {"speedup": best, "runs": len(fs),
             "sim_s": float(np.median([f.sim_s for f in fs])),
             "wall_s": float(np.median([f.wall_s for f in fs]))}
+
+
+def closed_loop_lockstep(flights: list[Flight]) -> dict:
+    """Median real-time factor of the lock-step paper flights (each flight's own ratio)."""
+    timed = [f for f in flights if f.sim_s and f.wall_s]
+    factors = [f.sim_s / f.wall_s for f in timed]
+    return {"runs": len(flights), "timed": len(timed),
+            "all_passed": all(f.passed for f in flights),
+            "any_free_ran": any(f.stub_free_ran for f in flights),
+            "real_time_factor": float(np.median(factors)) if factors else None,
+            "real_time_factor_min": float(min(factors)) if factors else None,
+            "sim_s": float(np.median([f.sim_s for f in timed])) if timed else None,
+            "wall_s": float(np.median([f.wall_s for f in timed])) if timed else None}
 
 
 # ------------------------------------------------------------------ replay
@@ -299,8 +330,10 @@ def run(quick: bool) -> dict:
             for speedup in speedups:
                 flights.append(fly(PAPER, speedup, workdir, f"paper-x{speedup}-{len(flights)}")[0])
         replay = measure_replay(corridor_tlog, 2 if quick else 5) if corridor_tlog.exists() \
-            else {"msgs_per_s": float("nan"), "parse_only_msgs_per_s": float("nan")}
-    all_flights = [corridor, *flights]
+            else {"msgs_per_s": None, "parse_only_msgs_per_s": None}
+        locked = [fly(PAPER, CORRIDOR_SPEEDUP, workdir, f"paper-lockstep-{i}", lockstep=True)[0]
+                  for i in range(QUICK_LOCKSTEP_RUNS if quick else LOCKSTEP_RUNS)]
+    all_flights = [corridor, *flights, *locked]
     # Memory in normal operation: the corridor and the flights that passed (an overwhelmed daemon
     # at too high a speedup queues messages; its peak is kept apart).
     peaks = [f.peak_rss_mb for f in all_flights if f.peak_rss_mb and (f.passed or not f.judged)]
@@ -314,8 +347,9 @@ def run(quick: bool) -> dict:
         "loopback_rtt_ms": loopback,
         "replay": replay,
         "closed_loop": closed_loop(flights),
-        "memory_mb": max(peaks) if peaks else float("nan"),
-        "memory_mb_all_flights": max(overloaded) if overloaded else float("nan"),
+        "closed_loop_lockstep": closed_loop_lockstep(locked),
+        "memory_mb": max(peaks) if peaks else None,
+        "memory_mb_all_flights": max(overloaded) if overloaded else None,
         "flights": [f.as_dict() for f in all_flights],
     }
 
@@ -347,18 +381,27 @@ def print_system(system: dict) -> None:
             return format(value, fmt) if value is not None else "-"
         lat_f = f["latency_ms"]
         verdict = ("yes" if f["passed"] else "NO") if f["judged"] else "n/a"
-        print(f"{f['scenario']:>10} {f['speedup']:>7g} {verdict:>6} "
+        pace = "lock" if f["lockstep"] else format(f["speedup"], "g")
+        print(f"{f['scenario']:>10} {pace:>7} {verdict:>6} "
               f"{num(f['sim_s'], '6.1f')} {num(f['wall_s'], '7.3f')} "
               f"{num(f['real_time_factor'], '7.1f')} {num(f['min_clearance_m'], '7.2f')} "
               f"{num(f['demo_wall_time_s'], '6.1f')} {num(lat_f.get('p50'), '7.3f')} "
               f"{num(lat_f.get('p99'), '7.3f')} {lat_f.get('samples', 0):>4} "
               f"{num(f['peak_rss_mb'], '6.1f')} {num(f['max_stall_sim_s'], '7.2f')}"
               + ("  stub fell behind" if f["stub_fell_behind"] else "")
+              + ("  stub free-ran (lock-step wait ran out)" if f["stub_free_ran"] else "")
               + (f"  error: {f['error']}" if f["error"] else ""))
     loop = system["closed_loop"]
     if loop["speedup"] is not None:
         print(f"closed loop: paper at speedup {loop['speedup']:g} (highest passing), "
               f"{loop['sim_s']:.1f} s simulated in {loop['wall_s']:.3f} s wall "
               f"(arming to arrival, median of {loop['runs']})")
-    print(f"daemon peak RSS (VmHWM): {system['memory_mb']:.1f} MB (corridor and passing flights; "
-          f"{system['memory_mb_all_flights']:.1f} MB over all)")
+    locked = system["closed_loop_lockstep"]
+    if locked["real_time_factor"] is not None:
+        print(f"closed loop in lock-step: paper {locked['sim_s']:.1f} s simulated in "
+              f"{locked['wall_s']:.3f} s wall, {locked['real_time_factor']:.0f}x real time "
+              f"(median of {locked['timed']}, min {locked['real_time_factor_min']:.0f}x; "
+              f"start-up excluded)")
+    if system["memory_mb"] is not None:
+        print(f"daemon peak RSS (VmHWM): {system['memory_mb']:.1f} MB (corridor and passing "
+              f"flights; {system['memory_mb_all_flights']:.1f} MB over all)")

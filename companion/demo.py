@@ -5,6 +5,12 @@ run`` (the daemon, on the stub's UDP port) and this one, a ground station on the
 that sets GUIDED and arms. When the companion reports arrival, both children get SIGTERM and the
 flight is scored like ``companion simulate``: truth from the stub's truth log, the estimate from
 the companion's report, aligned on the vehicle's time since boot.
+
+Lock-step (the default): the stub steps only when the companion has caught up, so the flight is
+the same whatever the machine's load. The stub holds t = 0 until the companion's first ODOMETRY;
+the ground station sets the streams the companion will ask for, GUIDED and arms in that hold, and
+only then starts the companion, so every run starts from the same instant. Scored from the
+companion's report at arrival (later ones depend on when the children were stopped).
 """
 from __future__ import annotations
 
@@ -28,6 +34,7 @@ from companion.config import (CompanionConfig, GoalConfig, Scenario, config_to_d
 from companion.core.geometry import wrap_angle
 from companion.errors import CompanionError
 from companion.paths import resolve_config
+from companion.service import STREAMS
 from companion.simulation import ARRIVAL_ALLOWANCE_M, aggregate_summaries
 
 log = logging.getLogger(__name__)
@@ -44,6 +51,7 @@ TAKEOFF_ATTEMPTS = 3
 CLIMB_EVIDENCE_M = 1.0           # LOCAL_POSITION_NED this far up: the takeoff is under way
 TAKEOFF_CLIMB_SIM_S = 10.0       # spool-up (2.5 s) and the first metre, with margin: simulated s
 TAKEOFF_RETRY_SIM_S = 2.0        # NAV_TAKEOFF resent this often (simulated s) until accepted
+LOCKSTEP_MIN_REAL_TIME_FACTOR = 5.0   # the flight's wall deadline in lock-step assumes this
 
 
 class DemoError(CompanionError):
@@ -167,8 +175,9 @@ async def wait_for(condition, what: str, timeout_s: float, children: list[Child]
 
 async def command_until_accepted(link, msg_factory, name: str, children: list[Child],
                                  timeout_s: float = COMMAND_TIMEOUT_S,
-                                 retry_s: float = COMMAND_RETRY_S) -> None:
+                                 retry_s: float = COMMAND_RETRY_S, is_answer=None) -> None:
     """Send a command every ``retry_s`` until its COMMAND_ACK says accepted."""
+    is_answer = is_answer or (lambda ack: codec.is_ack_for(ack, name))
     try:
         async with asyncio.timeout(timeout_s):
             while True:
@@ -179,7 +188,7 @@ async def command_until_accepted(link, msg_factory, name: str, children: list[Ch
                     async with asyncio.timeout(retry_s):
                         while True:
                             event = codec.decode((await link.inbox.get()).msg)
-                            if isinstance(event, codec.CommandAck) and codec.is_ack_for(event, name):
+                            if isinstance(event, codec.CommandAck) and is_answer(event):
                                 if event.accepted:
                                     return
                                 log.info("%s refused (result %d): retrying", name, event.result)
@@ -191,17 +200,24 @@ async def command_until_accepted(link, msg_factory, name: str, children: list[Ch
 
 
 async def ground_station(tcp_port: int, files: DemoFiles, scenario: Scenario, speedup: float,
-                         children: list[Child], config: CompanionConfig) -> dict:
+                         children: list[Child], config: CompanionConfig,
+                         start_companion=None) -> tuple[dict, list]:
     """Set GUIDED, arm, take off, and wait for the companion to report arrival; returns its
-    report."""
+    report and the (wall s, vehicle s) pairs seen after the takeoff. ``start_companion``
+    (lock-step): a coroutine function starting the companion, called once the takeoff is
+    accepted, while the stub still holds the vehicle's time at 0 (so the companion is up from
+    the vehicle's boot, as in docs/real-vehicle.md)."""
     key = read_signing_key(config.link)
     async with open_link(f"tcp:127.0.0.1:{tcp_port}",
                          codec.Encoder(GCS_SYSTEM_ID, codec.MAV_COMP_ID_MISSIONPLANNER, key),
                          signing_key=key) as link:
         async with asyncio.TaskGroup() as tg:
             receiver = tg.create_task(link.run(), name="gcs-receive")
-            await wait_for(lambda: read_report(files.report), "the companion's estimator",
-                           READY_TIMEOUT_S, children)
+            if start_companion is None:
+                await wait_for(lambda: read_report(files.report), "the companion's estimator",
+                               READY_TIMEOUT_S, children)
+            else:
+                await set_companion_streams(link, config, children)
             await command_until_accepted(
                 link, lambda: codec.set_mode(1, 1, config.link.guided_custom_mode), "set_mode",
                 children)
@@ -210,13 +226,55 @@ async def ground_station(tcp_port: int, files: DemoFiles, scenario: Scenario, sp
             await take_off(link, TAKEOFF_ALT_M, children,
                            max(COMMAND_TIMEOUT_S / 3, TAKEOFF_CLIMB_SIM_S / speedup),
                            min(COMMAND_RETRY_S, TAKEOFF_RETRY_SIM_S / speedup))
-            flight_s = (scenario.mission.max_time_s + 30.0) / speedup + 30.0
+            clock = tg.create_task(track_vehicle_time(link, samples := []), name="gcs-clock")
+            flight_sim_s = scenario.mission.max_time_s + 30.0      # the climb included
+            if start_companion is not None:
+                await start_companion()
+                flight_s = flight_sim_s / LOCKSTEP_MIN_REAL_TIME_FACTOR + 30.0
+            else:
+                flight_s = flight_sim_s / speedup + 30.0
             report = await wait_for(
                 lambda: (r := read_report(files.report)) and r.get("arrived") and r,
                 "the vehicle to arrive", flight_s, children)
             await wait_until_settled(files.truth)
             receiver.cancel()
-    return report
+            clock.cancel()
+    return report, samples
+
+
+async def set_companion_streams(link, config: CompanionConfig, children: list[Child]) -> None:
+    """SET_MESSAGE_INTERVAL for what the companion will ask, before it runs: its own requests
+    then change nothing, wherever in the flight they land."""
+    for msg_id, key in STREAMS:
+        rate_hz = getattr(config.streams, key)
+        await command_until_accepted(
+            link, lambda: codec.set_message_interval(1, 1, msg_id, rate_hz),
+            "set_message_interval", children, is_answer=codec.is_set_message_interval_ack)
+
+
+async def track_vehicle_time(link, samples: list) -> None:
+    """(wall s, vehicle s) of every message with a time_boot_ms, until cancelled."""
+    loop = asyncio.get_running_loop()
+    while True:
+        t_ms = getattr((await link.inbox.get()).msg, "time_boot_ms", None)
+        if t_ms is not None:
+            samples.append((loop.time(), t_ms / 1000.0))
+
+
+def flight_timing(samples: list, t0_s: float, t_arrival_s: float | None) -> dict:
+    """Wall seconds of the flight, from the first vehicle time after ``t0_s`` to the arrival
+    (process start-up and the lock-step hold for the companion not counted), and the real-time
+    factor; None where the samples cannot tell."""
+    none = {"flight_sim_s": None, "flight_wall_s": None, "real_time_factor": None}
+    moving = [(w, t) for w, t in samples if t > t0_s + 1e-9]
+    if t_arrival_s is None or not moving:
+        return none
+    wall0, vehicle0 = moving[0]
+    end = next((w for w, t in moving if t >= t_arrival_s - 1e-9), None)
+    if end is None or end <= wall0:
+        return none
+    return {"flight_sim_s": round(t_arrival_s - vehicle0, 6), "flight_wall_s": round(end - wall0, 4),
+            "real_time_factor": round((t_arrival_s - vehicle0) / (end - wall0), 1)}
 
 
 async def take_off(link, alt_m: float, children: list[Child], climb_timeout_s: float,
@@ -295,13 +353,18 @@ def read_truth(path: Path, tail_only: bool = False) -> list[dict]:
 
 
 async def run_demo(scenario_path: Path, scenario: Scenario, files: DemoFiles, speedup: float,
-                   seed: int, drop_rate: float,
-                   signing_key_file: Path | None = None) -> tuple[dict, dict, list[dict]]:
-    """Fly the scenario; returns (the companion's report, its config, the truth records).
-    With ``signing_key_file``, the stub, the companion and the ground station all sign."""
+                   seed: int, drop_rate: float, signing_key_file: Path | None = None,
+                   lockstep: bool = True) -> tuple[dict, dict, list[dict], list]:
+    """Fly the scenario; returns (the companion's report, its config, the truth records, the
+    ground station's (wall s, vehicle s) samples).
+    With ``signing_key_file``, the stub, the companion and the ground station all sign.
+    ``lockstep``: stub and companion in lock-step (module docstring); else the stub free-runs at
+    ``speedup`` on the wall clock."""
     config = demo_config(scenario, signing_key_file=signing_key_file)
     read_signing_key(config.link)             # a bad key file fails here, before any child
     files.config.write_text(yaml.safe_dump(config_to_dict(config)))
+    for stale in (files.report, files.truth):     # a kept workdir's last run must not score
+        stale.unlink(missing_ok=True)
     children: list[Child] = []
     try:
         stub_args = [sys.executable, "-m", "sitl_stub", "--scenario", str(scenario_path),
@@ -311,6 +374,8 @@ async def run_demo(scenario_path: Path, scenario: Scenario, files: DemoFiles, sp
             stub_args += ["--drop-rate", str(drop_rate)]
         if signing_key_file is not None:
             stub_args += ["--signing-key", str(signing_key_file)]
+        if lockstep:
+            stub_args += ["--lockstep"]
         stub = await spawn("sitl-stub", stub_args, files.workdir, stdout=asyncio.subprocess.PIPE)
         children.append(stub)
         tcp_port, udp_port = await wait_for_ready(stub)
@@ -319,16 +384,23 @@ async def run_demo(scenario_path: Path, scenario: Scenario, files: DemoFiles, sp
                           "--config", str(files.config), "--report", str(files.report)]
         if files.tlog:
             companion_args += ["--tlog", str(files.tlog)]
-        children.append(await spawn("companion", companion_args, files.workdir))
-        report = await ground_station(tcp_port, files, scenario, speedup, children, config)
+        if lockstep:
+            companion_args += ["--lockstep"]
+
+        async def start_companion() -> None:
+            children.append(await spawn("companion", companion_args, files.workdir))
+        if not lockstep:
+            await start_companion()
+        report, samples = await ground_station(tcp_port, files, scenario, speedup, children,
+                                               config, start_companion if lockstep else None)
     finally:
         # Stop the children together: one slow to exit must not double the wait for Ctrl-C.
         codes = await asyncio.shield(asyncio.gather(*(child.stop() for child in children)))
         for child, code in zip(children, codes):
             if code not in (0, -signal.SIGTERM):
                 log.warning("%s exited with %s", child.name, code)
-    final = read_report(files.report) or report
-    return final, config_to_dict(config), read_truth(files.truth)
+    final = report if lockstep else read_report(files.report) or report
+    return final, config_to_dict(config), read_truth(files.truth), samples
 
 
 # ------------------------------------------------------------------ scoring
@@ -365,7 +437,9 @@ def score(report: dict, truth: list[dict], scenario: Scenario, seed: int) -> tup
     goal = scenario.world.goal
     at_arrival = np.array([np.interp(t_arrival, t_true, true_pose[:, k]) for k in range(2)])
     final_goal_distance = float(math.hypot(at_arrival[0] - goal.north_m, at_arrival[1] - goal.east_m))
-    obstacles_end = truth[-1]["obstacles"] if truth else []
+    # at arrival: later records depend on when the children were stopped
+    obstacles_end = next((r["obstacles"] for r in truth if r["t_s"] >= t_arrival),
+                         truth[-1]["obstacles"] if truth else [])
     summary = {
         "seed": seed,
         "reached_goal": bool(report.get("arrived"))

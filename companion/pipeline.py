@@ -393,11 +393,13 @@ class Pipeline:
         if self.record_track:
             pose, cov = nav.slam.pose, nav.slam.pose_cov
             self.track.append(array("d", (lpn.t_s, *pose.tolist(), *cov.ravel().tolist())))
-        self._maybe_publish_pose(lpn.t_s, out)
         due = (self._last_decision_t_s is None or lpn.t_s - self._last_decision_t_s
                >= self.config.commanding.setpoint_period_s - TIME_EPS_S)
         if (reports or due) and self.goal_ne is not None:
             self._decide(t_link_s, lpn.t_s, out)
+        # After the decision: a lock-step stub takes our ODOMETRY as the sign that everything we
+        # do for this sample has been sent (companion/lockstep.py).
+        self._maybe_publish_pose(lpn.t_s, out)
 
     def _make_navigator(self, north_m: float, east_m: float, yaw_rad: float) -> Navigator:
         est = self.config.estimator

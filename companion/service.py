@@ -13,6 +13,10 @@ sending. Tasks, one job each:
   streams    SET_MESSAGE_INTERVAL (acked, retried), else REQUEST_DATA_STREAM
   tlog       flush twice a second
   stop       SIGINT/SIGTERM -> one stop setpoint if commanding -> ShutdownRequested
+
+With ``lockstep`` (``companion run --lockstep``, against ``sitl-stub --lockstep``) the stamps given
+to the pipeline and the tlog, and our heartbeat schedule, come from the vehicle's clock
+(companion/lockstep.py); the watchdog's log lines stay on the wall clock.
 """
 from __future__ import annotations
 
@@ -32,6 +36,7 @@ from companion.adapters.mavlink_link import MavlinkLink, open_link
 from companion.adapters.tlog import TlogWriter
 from companion.config import CompanionConfig, config_to_dict, read_signing_key
 from companion.errors import ShutdownRequested
+from companion.lockstep import VehicleLinkClock, lockstep_config
 from companion.pipeline import Arrived, NavigatorStarted, Pipeline, StreamsWanted, snapshot
 from companion.report import _clean
 from companion.safety.notices import NoticeLimiter
@@ -75,8 +80,9 @@ class Service:
     """The live daemon around one Pipeline."""
 
     def __init__(self, config: CompanionConfig, link: MavlinkLink, tlog: TlogWriter | None,
-                 report_path: str | Path | None) -> None:
+                 report_path: str | Path | None, clock: VehicleLinkClock | None = None) -> None:
         self.config = config
+        self.clock = clock
         self.link = link
         self.tlog = tlog
         self.report_path = report_path
@@ -93,7 +99,8 @@ class Service:
         self.notices = NoticeLimiter(config.safety.statustext_repeat_s,
                                      config.safety.statustext_per_s)
         if tlog is not None:
-            link.on_sent = tlog.write
+            link.on_sent = tlog.write if clock is None else \
+                (lambda _t_us, data: tlog.write(clock.now_us(), data))
         link.on_connect = self.streams_wanted.set
 
     # ------------------------------------------------------------ tasks
@@ -106,9 +113,12 @@ class Service:
             received = await link.inbox.get()
             if self.stop.is_set():
                 break
-            if self.tlog is not None:
-                self.tlog.write(received.t_us, bytes(received.msg.get_msgbuf()))
             event = codec.decode(received.msg)
+            t_us = received.t_us if self.clock is None else self.clock.observe(event)
+            if self.tlog is not None:
+                self.tlog.write(t_us, bytes(received.msg.get_msgbuf()))
+            if self.clock is not None and self.clock.heartbeat_due():
+                link.send(codec.heartbeat())
             if isinstance(event, codec.CommandAck) and pipeline.vehicle == (
                     event.system_id, event.component_id) and not self.acks.full():
                 self.acks.put_nowait(event)
@@ -118,7 +128,7 @@ class Service:
                     event.system_id, event.component_id):
                 self.rates.on_message(codec.MSG_ID_ATTITUDE if isinstance(event, codec.Attitude)
                                       else codec.MSG_ID_LOCAL_POSITION_NED)
-            for output in pipeline.handle(received.t_us / 1e6, event):
+            for output in pipeline.handle(t_us / 1e6, event):
                 await self._dispatch(output)
 
     async def _dispatch(self, output) -> None:
@@ -162,7 +172,8 @@ class Service:
     async def send_heartbeats(self) -> None:
         period_s = 1.0 / self.config.link.heartbeat_rate_hz
         while True:
-            self.link.send(codec.heartbeat())
+            if self.clock is None or not self.clock.started:   # lock-step: see estimate()
+                self.link.send(codec.heartbeat())
             await asyncio.sleep(period_s)
 
     async def watch(self) -> None:
@@ -170,13 +181,19 @@ class Service:
         to command on a stale heartbeat) and asks for streams again when odometry stays away."""
         timeout_s = self.config.link.heartbeat_timeout_s
         silent = False
+        loop = asyncio.get_running_loop()
+        seen, seen_wall_s = None, 0.0
         while True:
             await asyncio.sleep(WATCHDOG_INTERVAL_S)
             self._check_rates()
             last = self.pipeline.heartbeat_link_s
             if last is None:
                 continue
-            age_s = self.link.now_us() / 1e6 - last
+            if last != seen:
+                seen, seen_wall_s = last, loop.time()
+            # lock-step: the link clock stops with the link, so the silence is timed on the wall
+            age_s = self.link.now_us() / 1e6 - last if self.clock is None \
+                else loop.time() - seen_wall_s
             if age_s > timeout_s and not silent:
                 silent = True
                 log.warning("no vehicle heartbeat for %.1f s: commanding stopped", age_s)
@@ -251,7 +268,8 @@ class Service:
     async def raise_on_stop(self) -> None:
         await self.stop.wait()
         # The vehicle would coast on its last velocity until GUID_TIMEOUT: tell it to stop.
-        for setpoint in self.pipeline.stop_setpoint(self.link.now_us() / 1e6):
+        now_us = self.link.now_us() if self.clock is None else self.clock.now_us()
+        for setpoint in self.pipeline.stop_setpoint(now_us / 1e6):
             self.link.send(codec.set_position_target(setpoint))
             log.info("shutdown: stop setpoint sent (velocity 0, yaw %.1f deg)",
                      math.degrees(setpoint.yaw_rad))
@@ -269,9 +287,13 @@ class Service:
 
 
 async def run_service(config: CompanionConfig, url: str, tlog_path: str | Path | None = None,
-                      report_path: str | Path | None = None) -> None:
+                      report_path: str | Path | None = None, lockstep: bool = False) -> None:
     """Run the daemon until SIGINT/SIGTERM. ``config.goal`` must be set."""
     loop = asyncio.get_running_loop()
+    clock = None
+    if lockstep:
+        config = lockstep_config(config)
+        clock = VehicleLinkClock(1.0 / config.link.heartbeat_rate_hz)
     # The key stays in this frame, the encoder and the parser: never in the config, a log line,
     # the tlog's sidecar or the report (they name the key file only).
     signing_key = read_signing_key(config.link)
@@ -285,7 +307,7 @@ async def run_service(config: CompanionConfig, url: str, tlog_path: str | Path |
     try:
         async with open_link(url, encoder, config.link.inbox_size,
                              config.link.reconnect_interval_s, signing_key) as link:
-            service = Service(config, link, tlog, report_path)
+            service = Service(config, link, tlog, report_path, clock)
             for sig in (signal.SIGINT, signal.SIGTERM):
                 loop.add_signal_handler(sig, service.stop.set)
             log.info("companion up on %s%s: goal %s", url,

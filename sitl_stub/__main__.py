@@ -2,6 +2,7 @@
 
     sitl-stub --scenario PATH [--tcp HOST:PORT|none] [--udp HOST:PORT] [--speedup N] [--seed S]
               [--truth-log PATH] [--drop-rate P] [--sysid N] [--signing-key FILE] [--streams-off]
+              [--lockstep] [--lockstep-timeout-s S]
     sitl-stub --camera-only --connect URL --scenario PATH [--seed S] [--sysid N]
               [--ekf-origin N,E] [--sectors]     # the camera alone, beside any autopilot
 
@@ -25,9 +26,10 @@ from pathlib import Path
 from .autopilot import Autopilot
 from .camera_component import CameraComponent
 from .links import Endpoint, LinkError, LinkHub, open_links, parse_endpoint
+from .lockstep import DEFAULT_TIMEOUT_S, LockstepGate, LockstepOptions, odometry_last
 from .params import ParamTable
 from .sim import Simulation
-from .telemetry import MODE_NAMES
+from .telemetry import COMP_AUTOPILOT, MODE_NAMES
 from .world import Scenario, ScenarioError, load_scenario, obstacles_at
 
 log = logging.getLogger("sitl_stub")
@@ -35,6 +37,8 @@ log = logging.getLogger("sitl_stub")
 EXIT_USAGE = 2
 INBOX_LIMIT = 10_000
 MAX_LAG_S = 0.5   # wall seconds behind schedule before the schedule is rebased (logged)
+RESEND_BEFORE_PEER_S = 1.0
+RESENT_BEFORE_PEER = (0, 30, 32)     # HEARTBEAT, ATTITUDE, LOCAL_POSITION_NED
 
 
 class ShutdownRequested(Exception):
@@ -53,6 +57,7 @@ class Options:
     sysid: int
     signing_key: bytes | None
     streams_off: bool
+    lockstep: LockstepOptions | None = None
 
 
 class TruthLog:
@@ -98,6 +103,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--signing-key", default=None, help="file with a 32-byte key as 64 hex chars")
     p.add_argument("--streams-off", action="store_true",
                    help="all SRn_* stream rates 0: no telemetry until a client asks")
+    p.add_argument("--lockstep", action="store_true",
+                   help="step only when the companion's ODOMETRY says it has caught up "
+                        "(docs/sitl_stub.md); --speedup paces the free-run fallback")
+    p.add_argument("--lockstep-timeout-s", type=float, default=DEFAULT_TIMEOUT_S,
+                   help=f"wall seconds to wait for the companion before free-running "
+                        f"(default {DEFAULT_TIMEOUT_S:g})")
     p.add_argument("--log-level", default="INFO", help="stderr log level (default INFO)")
     cam = p.add_argument_group("camera only: the stub's camera beside any autopilot")
     cam.add_argument("--camera-only", action="store_true",
@@ -129,10 +140,13 @@ def parse_options(argv: list[str] | None) -> Options:
     if tcp is None and udp is None:
         raise ValueError("both --tcp and --udp are disabled: nothing to serve")
     key = _read_signing_key(args.signing_key) if args.signing_key else None
+    if not args.lockstep_timeout_s > 0:
+        raise ValueError(f"--lockstep-timeout-s must be > 0, got {args.lockstep_timeout_s}")
+    lockstep = LockstepOptions(timeout_s=args.lockstep_timeout_s) if args.lockstep else None
     return Options(scenario=load_scenario(args.scenario), tcp=tcp, udp=udp, speedup=args.speedup,
                    seed=args.seed, truth_log=Path(args.truth_log) if args.truth_log else None,
                    drop_rate=args.drop_rate, sysid=sysid, signing_key=key,
-                   streams_off=args.streams_off)
+                   streams_off=args.streams_off, lockstep=lockstep)
 
 
 def _read_signing_key(path: str) -> bytes:
@@ -148,33 +162,135 @@ def _read_signing_key(path: str) -> bytes:
         raise ValueError(f"--signing-key {path}: not hexadecimal") from None
 
 
-async def simulate(opts: Options, sim: Simulation, ap: Autopilot, cam: CameraComponent,
-                   hub: LinkHub, inbox: collections.deque, truth_log: TruthLog | None) -> None:
-    """Step physics on simulated time, handle messages, emit telemetry. Runs until cancelled."""
-    loop = asyncio.get_running_loop()
-    dt_s = sim.dt_s
-    wall0 = loop.time()
-    base_step = 0
-    hub.broadcast(ap.periodic(sim.t_s) + cam.periodic(sim.t_s))
-    if truth_log is not None:
-        truth_log.write(sim.t_s, sim, ap)
-    while True:
-        due = wall0 + (sim.step_index + 1 - base_step) * dt_s / opts.speedup
-        delay = due - loop.time()
+class WallPacer:
+    """Paces steps at dt_s / speedup wall seconds; rebases (logged) when far behind."""
+
+    def __init__(self, dt_s: float, speedup: float) -> None:
+        self._loop = asyncio.get_running_loop()
+        self._period_s = dt_s / speedup
+        self.rebase(0)
+
+    def rebase(self, step_index: int) -> None:
+        self._wall0, self._base_step = self._loop.time(), step_index
+
+    async def wait_for_step(self, step_index: int) -> None:
+        due = self._wall0 + (step_index + 1 - self._base_step) * self._period_s
+        delay = due - self._loop.time()
         if delay < -MAX_LAG_S:
             log.warning("falling behind wall clock by %.2f s; simulated time slows down", -delay)
-            wall0, base_step = loop.time(), sim.step_index
+            self.rebase(step_index)
             delay = 0.0
         await asyncio.sleep(max(0.0, delay))
+
+
+async def simulate(opts: Options, sim: Simulation, ap: Autopilot, cam: CameraComponent,
+                   hub: LinkHub, inbox: collections.deque, truth_log: TruthLog | None,
+                   lockstep: Lockstep | None = None) -> None:
+    """Step physics on simulated time, handle messages, emit telemetry. Runs until cancelled."""
+    pacer = WallPacer(sim.dt_s, opts.speedup)
+
+    def handle_inbox() -> None:
         t_s = sim.t_s
         while inbox:
             name, msg = inbox.popleft()
             hub.broadcast(handle_safely(ap, name, msg, t_s))
-        sim.step(ap.demand(t_s), ap.armed, ap.climb_limits())
+
+    def emit(items: list) -> None:
+        if lockstep is not None:
+            items = lockstep.note_burst(odometry_last(items))
+        hub.broadcast(items)
+
+    emit(ap.periodic(sim.t_s) + cam.periodic(sim.t_s))
+    if truth_log is not None:
+        truth_log.write(sim.t_s, sim, ap)
+    while True:
+        if lockstep is not None and not lockstep.gate.free_running:
+            if not await lockstep.wait_for_peer(sim.t_s, handle_inbox):
+                pacer.rebase(sim.step_index)
+        else:
+            await pacer.wait_for_step(sim.step_index)
+            if lockstep is not None:
+                lockstep.maybe_relock(sim.t_s)
+        handle_inbox()
+        sim.step(ap.demand(sim.t_s), ap.armed, ap.climb_limits())
         t_s = sim.t_s
-        hub.broadcast(ap.after_step(t_s) + ap.periodic(t_s) + cam.periodic(t_s))
+        emit(ap.after_step(t_s) + ap.periodic(t_s) + cam.periodic(t_s))
         if truth_log is not None:
             truth_log.write(t_s, sim, ap)
+
+
+class Lockstep:
+    """The asyncio side of lock-step: wakes the stepping task, bounds its waits, re-sends the
+    current step to a client that joins while the stub waits (it would have missed it)."""
+
+    def __init__(self, options: LockstepOptions, hub: LinkHub, speedup: float) -> None:
+        self.options = options
+        self._speedup = speedup
+        self.gate = LockstepGate()
+        self._hub = hub
+        self._wake = asyncio.Event()
+        self._burst: list = []
+        hub.on_delivered = self.gate.on_delivered
+        hub.on_odometry = self._on_odometry
+        hub.on_client = self._on_client
+
+    def note_burst(self, items: list) -> list:
+        self._burst = items
+        return items
+
+    def wake(self) -> None:
+        self._wake.set()
+
+    def _on_odometry(self, client: str, msg) -> None:
+        self.gate.on_odometry(client, msg)
+        self._wake.set()
+
+    def _on_client(self, name: str) -> None:
+        self._hub.broadcast(self._burst, only=name)
+
+    def _resend_sample(self) -> None:
+        """Before the first peer: the step's heartbeat, ATTITUDE and position again, in case the
+        first ones were lost (--drop-rate); duplicates are harmless (same time, not newer)."""
+        self._hub.broadcast([(comp, msg) for comp, msg in self._burst
+                             if msg.id in RESENT_BEFORE_PEER and comp == COMP_AUTOPILOT])
+
+    async def wait_for_peer(self, t_s: float, handle_inbox) -> bool:
+        """Until the peers have caught up; False (and free-running) after the bounded wait.
+        Messages that arrive meanwhile are handled at once, at the current time."""
+        gate = self.gate
+        if gate.caught_up():
+            return True
+        gate.waits += 1
+        loop = asyncio.get_running_loop()
+        timeout_s = self.options.timeout_s if gate.has_peer else self.options.start_timeout_s
+        deadline = loop.time() + timeout_s
+        while True:
+            handle_inbox()
+            if gate.caught_up():
+                return True
+            remaining = deadline - loop.time()
+            if remaining <= 0.0:
+                break
+            self._wake.clear()
+            try:
+                async with asyncio.timeout(remaining if gate.has_peer
+                                           else min(remaining, RESEND_BEFORE_PEER_S)):
+                    await self._wake.wait()
+            except TimeoutError:
+                if not gate.has_peer:
+                    self._resend_sample()
+        gate.timeouts += 1
+        gate.free_running = True
+        log.warning("lock-step: %s after %.1f s wall at t=%.1f s (simulated): free-running at "
+                    "speedup %g until it catches up",
+                    f"no answer ({gate.lagging()})" if gate.has_peer else "no companion ODOMETRY",
+                    timeout_s, t_s, self._speedup)
+        return False
+
+    def maybe_relock(self, t_s: float) -> None:
+        if self.gate.caught_up():
+            self.gate.free_running = False
+            log.info("lock-step: the companion caught up at t=%.1f s (simulated): locked", t_s)
 
 
 def handle_safely(ap: Autopilot, name: str, msg, t_s: float) -> list:
@@ -203,15 +319,21 @@ async def run_stub(opts: Options) -> None:
     inbox: collections.deque = collections.deque()
     overflow = [0]
 
+    lockstep: Lockstep | None = None
+
     def on_message(name: str, msg) -> None:
         if len(inbox) >= INBOX_LIMIT:
             overflow[0] += 1
             return
         inbox.append((name, msg))
+        if lockstep is not None:
+            lockstep.wake()
 
     hub = LinkHub(opts.tcp, opts.udp, opts.sysid, on_message, drop_rate=opts.drop_rate,
                   seed=opts.seed, signing_key=opts.signing_key)
     ap.on_signing_request = hub.set_signing_key
+    if opts.lockstep is not None:
+        lockstep = Lockstep(opts.lockstep, hub, opts.speedup)
     stop = asyncio.Event()
     loop = asyncio.get_running_loop()
     for sig in (signal.SIGTERM, signal.SIGINT):
@@ -222,18 +344,23 @@ async def run_stub(opts: Options) -> None:
             tcp = "%s:%d" % hub.tcp_address if hub.tcp_address else "-"
             udp = "%s:%d" % hub.udp_address if hub.udp_address else "-"
             log.info("scenario %r (%s): dt %.3f s, speedup %g, seed %d, drop rate %g, sysid %d, "
-                     "signing %s, streams %s", opts.scenario.name, opts.scenario.path,
-                     sim.dt_s, opts.speedup, opts.seed, opts.drop_rate, opts.sysid,
-                     "on" if opts.signing_key else "off", "off" if opts.streams_off else "default")
+                     "signing %s, streams %s, lock-step %s", opts.scenario.name,
+                     opts.scenario.path, sim.dt_s, opts.speedup, opts.seed, opts.drop_rate,
+                     opts.sysid, "on" if opts.signing_key else "off",
+                     "off" if opts.streams_off else "default",
+                     f"on (timeout {opts.lockstep.timeout_s:g} s)" if opts.lockstep else "off")
             print(f"SITL_STUB READY tcp={tcp} udp={udp}", flush=True)
             try:
                 async with asyncio.TaskGroup() as tg:
-                    tg.create_task(simulate(opts, sim, ap, cam, hub, inbox, truth_log),
-                                   name="simulate")
+                    tg.create_task(simulate(opts, sim, ap, cam, hub, inbox, truth_log,
+                                            lockstep), name="simulate")
                     tg.create_task(raise_on(stop), name="stop")
             except* ShutdownRequested:
                 log.info("clean shutdown at t=%.2f s (simulated)", sim.t_s)
             log.info("link statistics: %s; inbox overflow %d", hub.statistics(), overflow[0])
+            if lockstep is not None:
+                log.info("lock-step: %d steps, %d waited for the companion, %d waits timed out",
+                         sim.step_index, lockstep.gate.waits, lockstep.gate.timeouts)
     finally:
         if truth_log is not None:
             truth_log.close()

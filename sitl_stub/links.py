@@ -5,6 +5,12 @@ pymavlink encoder per component (1 and 100), so each component has its own seque
 on each link, as ArduPilot keeps them per channel. Garbage from a client is counted and
 dropped. With drop_rate P, each incoming/outgoing UDP datagram and each incoming/outgoing TCP
 message is dropped with probability P, from its own seeded random stream.
+
+Lock-step hooks (``sitl_stub/lockstep.py``): ``on_delivered(client, msg)`` for every message
+that went out, ``on_odometry(client, msg)`` for every ODOMETRY that came in, ``on_client(name)``
+when a client appears. With ``on_odometry`` set, UDP drops are drawn per message like TCP's, and
+ODOMETRY is never dropped: it is the simulation's clock (as ArduPilot SITL's physics socket is
+apart from MAVLink), not flight traffic, and a lost one would stall the stub for a timeout.
 """
 from __future__ import annotations
 
@@ -26,6 +32,7 @@ MAX_TCP_BACKLOG_BYTES = 1 << 20
 CLOSE_TIMEOUT_S = 2.0             # handlers of connected TCP clients get this long to end   # a client that does not read loses messages beyond this
 # Unsigned messages accepted when signing is on (ArduPilot also lets RADIO_STATUS through).
 UNSIGNED_ALLOWED = (mavlink.MAVLINK_MSG_ID_HEARTBEAT, mavlink.MAVLINK_MSG_ID_RADIO_STATUS)
+_MSG_ID_ODOMETRY = mavlink.MAVLINK_MSG_ID_ODOMETRY
 _SIGNING_EPOCH_UNIX_S = 1420070400   # MAVLink signing timestamps count 10 us from 2015-01-01
 
 
@@ -132,6 +139,9 @@ class LinkHub:
         self._n = dict(received=0, sent=0, dropped_in=0, dropped_out=0, bad_data=0, bad_bytes=0,
                        unsigned_rejected=0, backlog_dropped=0)
         self._last_bad_warning_s = 0.0
+        self.on_delivered: Callable[[str, object], None] | None = None
+        self.on_odometry: Callable[[str, object], None] | None = None
+        self.on_client: Callable[[str], None] | None = None
 
     # ------------------------------------------------------------------ lifecycle
     async def start(self) -> None:
@@ -189,20 +199,22 @@ class LinkHub:
                               udp_clients=len(self._udp_clients), **self._n)
 
     # ------------------------------------------------------------------ sending
-    def broadcast(self, items: list[tuple[int, object]]) -> None:
-        """Send each (component, message) to every client."""
+    def broadcast(self, items: list[tuple[int, object]], only: str | None = None) -> None:
+        """Send each (component, message) to every client (or to the client named ``only``)."""
         if not items:
             return
+        delivered = self.on_delivered
         for name, (client, writer) in list(self._tcp_clients.items()):
-            if writer.is_closing():
+            if writer.is_closing() or only not in (None, name):
                 continue
-            chunks = []
+            chunks, msgs = [], []
             for comp, msg in items:
                 data = client.encode(comp, msg)
                 if self._drop():
                     self._n["dropped_out"] += 1
                     continue
                 chunks.append(data)
+                msgs.append(msg)
             if not chunks:
                 continue
             if writer.transport.get_write_buffer_size() > MAX_TCP_BACKLOG_BYTES:
@@ -210,8 +222,13 @@ class LinkHub:
                 continue
             writer.write(b"".join(chunks))
             self._n["sent"] += len(chunks)
+            if delivered is not None:
+                for msg in msgs:
+                    delivered(name, msg)
         if self._udp_transport is not None:
             for addr, client in list(self._udp_clients.items()):
+                if only not in (None, client.name):
+                    continue
                 for comp, msg in items:
                     data = client.encode(comp, msg)
                     if self._drop():
@@ -219,6 +236,8 @@ class LinkHub:
                         continue
                     self._udp_transport.sendto(data, addr)
                     self._n["sent"] += 1
+                    if delivered is not None:
+                        delivered(client.name, msg)
 
     # ------------------------------------------------------------------ receiving
     def _drop(self) -> bool:
@@ -246,10 +265,13 @@ class LinkHub:
                 continue
             if msg.get_type() == "UNKNOWN" or msg.get_type().startswith("UNKNOWN"):
                 continue
-            if per_message_drop and self._drop():
+            is_clock = self.on_odometry is not None and msg.get_msgId() == _MSG_ID_ODOMETRY
+            if per_message_drop and not is_clock and self._drop():
                 self._n["dropped_in"] += 1
                 continue
             self._n["received"] += 1
+            if is_clock:
+                self.on_odometry(client.name, msg)
             self._on_message(client.name, msg)
 
     def _count_bad(self, client: _Client, nbytes: int, reason: str) -> None:
@@ -269,6 +291,8 @@ class LinkHub:
         name = f"tcp:{peer[0]}:{peer[1]}" if peer else "tcp:?"
         client = self._new_client(name)
         self._tcp_clients[name] = (client, writer)
+        if self.on_client is not None:
+            self.on_client(name)
         try:
             while True:
                 data = await reader.read(4096)
@@ -285,14 +309,17 @@ class LinkHub:
                 self._handlers.discard(task)
 
     def _on_datagram(self, data: bytes, addr: tuple) -> None:
-        if self._drop():
+        lockstep = self.on_odometry is not None
+        if not lockstep and self._drop():
             self._n["dropped_in"] += 1
             return
         client = self._udp_clients.get(addr)
         if client is None:
             client = self._new_client(f"udp:{addr[0]}:{addr[1]}")
             self._udp_clients[addr] = client
-        self._feed(client, data, per_message_drop=False)
+            if self.on_client is not None:
+                self.on_client(client.name)
+        self._feed(client, data, per_message_drop=lockstep)
 
 
 class _UdpProtocol(asyncio.DatagramProtocol):

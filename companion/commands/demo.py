@@ -26,8 +26,13 @@ def add_parser(sub) -> None:
                     "arrival, and scores the flight like `companion simulate`.")
     p.add_argument("--scenario", default=DEFAULT_SCENARIO,
                    help=f"scenario YAML (default {DEFAULT_SCENARIO})")
+    p.add_argument("--lockstep", action=argparse.BooleanOptionalAction, default=True,
+                   help="stub and companion in lock-step: the same flight whatever the machine's "
+                        "load, as fast as the two processes go (default); --no-lockstep: the "
+                        "stub runs on the wall clock at --speedup")
     p.add_argument("--speedup", type=float, default=20.0,
-                   help="simulated seconds per wall second (default 20)")
+                   help="simulated seconds per wall second without lock-step, and of the "
+                        "stub's free-run fallback in lock-step (default 20)")
     p.add_argument("--seed", type=int, default=0, help="the stub's noise seed (default 0)")
     p.add_argument("--drop-rate", type=float, default=0.0,
                    help="fraction of datagrams (UDP, companion <-> stub) and TCP messages (ground "
@@ -45,7 +50,7 @@ def add_parser(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from companion.demo import DemoFiles, demo_result, run_demo, score
+    from companion.demo import DemoFiles, demo_result, flight_timing, run_demo, score
     if args.speedup <= 0:
         raise CompanionError(f"--speedup: expected a positive number, got {args.speedup}")
     if not 0.0 <= args.drop_rate < 1.0:
@@ -61,9 +66,9 @@ def run(args: argparse.Namespace) -> int:
         workdir.mkdir(parents=True, exist_ok=True)
         files = DemoFiles(workdir, tlog)
         try:
-            report, _, truth = asyncio.run(run_demo(
+            report, _, truth, samples = asyncio.run(run_demo(
                 scenario_path, scenario, files, args.speedup, args.seed, args.drop_rate,
-                Path(args.signing_key).resolve() if args.signing_key else None))
+                Path(args.signing_key).resolve() if args.signing_key else None, args.lockstep))
         except BaseExceptionGroup as group:
             match, rest = group.split(CompanionError)
             if match is None or rest is not None:
@@ -74,6 +79,10 @@ def run(args: argparse.Namespace) -> int:
     result = demo_result(summary, arrays.pop("nees"), scenario)
     result["aggregate"]["wall_time_s"] = round(wall_s, 2)
     result["aggregate"]["speedup"] = args.speedup
+    result["aggregate"]["lockstep"] = args.lockstep
+    t_arrival = report.get("arrival_t_s")
+    result["aggregate"].update(flight_timing(
+        samples, t_arrival - summary["time_s"] if t_arrival is not None else 0.0, t_arrival))
     if args.json:
         write_json(args.json, result)
     if args.plot:
@@ -86,8 +95,11 @@ def run(args: argparse.Namespace) -> int:
                    title=f"{scenario.name}: companion demo over MAVLink, seed {args.seed}",
                    start_ne=np.array([scenario.world.start.north_m, scenario.world.start.east_m]))
     print_summary(result, sys.stdout)
-    print(f"time to goal {summary['time_s']:.1f} s simulated, {wall_s:.1f} s wall "
-          f"(speedup {args.speedup:g}); urgent events {summary['urgent_events']}")
+    rtf = result["aggregate"]["real_time_factor"]
+    pace = "lock-step" if args.lockstep else f"speedup {args.speedup:g}"
+    print(f"time to goal {summary['time_s']:.1f} s simulated, {wall_s:.1f} s wall in all "
+          f"({pace}; the flight at {rtf if rtf is not None else '?'}x real time); "
+          f"urgent events {summary['urgent_events']}")
     if args.tlog:
         print(f"tlog: {args.tlog}")
     return 0 if summary["reached_goal"] else 1

@@ -35,6 +35,9 @@ def add_parser(sub) -> None:
     p.add_argument("--report", metavar="PATH",
                    help="write the estimated track, map and events as JSON (at start, arrival, exit)")
     p.add_argument("--sysid", type=int, help="pin the vehicle's system id")
+    p.add_argument("--lockstep", action="store_true",
+                   help="against `sitl-stub --lockstep`: one ODOMETRY per odometry sample, and "
+                        "the vehicle's clock for heartbeats, timeouts and the tlog")
     p.set_defaults(handler=run)
 
 
@@ -85,7 +88,8 @@ def run(args: argparse.Namespace) -> int:
     from companion.service import run_service
     config = effective_config(args)
     try:
-        asyncio.run(run_service(config, args.connect, args.tlog, args.report))
+        asyncio.run(run_service(config, args.connect, args.tlog, args.report,
+                                lockstep=args.lockstep))
     except BaseExceptionGroup as group:
         # A CompanionError raised inside the task tree (e.g. the link) is theirs: say it plainly.
         # Anything else is our bug and keeps its traceback.

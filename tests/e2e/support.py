@@ -70,10 +70,14 @@ def spawn(tmp_path: Path, name: str, argv: list[str], stdout=subprocess.DEVNULL)
     return Process(proc, err)
 
 
-def start_stub(tmp_path: Path, *args: str, scenario: Path = PAPER) -> tuple[Process, int, int]:
-    """sitl-stub on TCP and UDP port 0; returns (process, tcp port, udp port) from READY."""
+def start_stub(tmp_path: Path, *args: str, scenario: Path = PAPER,
+               lockstep: bool = False) -> tuple[Process, int, int]:
+    """sitl-stub on TCP and UDP port 0; returns (process, tcp port, udp port) from READY.
+    ``lockstep``: the stub waits for the companion (start it with ``lockstep`` too): every test
+    that flies does, so that a busy machine cannot change the flight."""
     stub = spawn(tmp_path, "stub", [sys.executable, "-m", "sitl_stub", "--scenario", str(scenario),
-                                    "--tcp", "127.0.0.1:0", "--udp", "127.0.0.1:0", *args],
+                                    "--tcp", "127.0.0.1:0", "--udp", "127.0.0.1:0", *args,
+                                    *(["--lockstep"] if lockstep else [])],
                  stdout=subprocess.PIPE)
     ready, _, _ = select.select([stub.proc.stdout], [], [], 20.0)
     line = stub.proc.stdout.readline() if ready else ""
@@ -95,9 +99,11 @@ def write_config(tmp_path: Path, goal=(180.0, 0.0), **sections) -> Path:
     return path
 
 
-def start_companion(tmp_path: Path, url: str, config: Path, *extra: str) -> Process:
+def start_companion(tmp_path: Path, url: str, config: Path, *extra: str,
+                    lockstep: bool = False) -> Process:
     return spawn(tmp_path, "companion", [sys.executable, "-m", "companion", "-v", "run",
-                                         "--connect", url, "--config", str(config), *extra])
+                                         "--connect", url, "--config", str(config), *extra,
+                                         *(["--lockstep"] if lockstep else [])])
 
 
 class GroundStation:

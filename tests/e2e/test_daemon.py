@@ -1,4 +1,5 @@
-"""The daemon against the stub over real loopback sockets: tlog, pilot override, link loss, SIGTERM."""
+"""The daemon against the stub over real loopback sockets: tlog, pilot override, link loss, SIGTERM.
+All in lock-step (the stub waits for the daemon), so a busy machine cannot change the flight."""
 from __future__ import annotations
 
 import re
@@ -30,13 +31,13 @@ def long_scenario(tmp_path):
 def flight(tmp_path, long_scenario):
     """Stub + companion (recording a tlog) + ground station; armed in GUIDED and flying."""
     stub, tcp_port, udp_port = start_stub(tmp_path, "--speedup", SPEEDUP,
-                                          scenario=long_scenario)
+                                          scenario=long_scenario, lockstep=True)
     processes = [stub]
     try:
         config = write_config(tmp_path, goal=(2000.0, 0.0))
         tlog = tmp_path / "run.tlog"
         companion = start_companion(tmp_path, f"udpout:127.0.0.1:{udp_port}", config,
-                                    "--tlog", str(tlog))
+                                    "--tlog", str(tlog), lockstep=True)
         processes.append(companion)
         gcs = GroundStation(tcp_port)
         gcs.fly_from_the_ground()
@@ -91,18 +92,23 @@ def test_pilot_leaving_guided_stops_setpoints_at_once(flight):
 
 
 def test_link_cut_stops_commanding_and_the_daemon_resyncs(tmp_path, long_scenario):
-    stub, tcp_port, udp_port = start_stub(tmp_path, "--speedup", SPEEDUP, scenario=long_scenario)
+    # Lock-step: the cut stalls the stub for its bounded wait (0.5 s), then it free-runs at
+    # SPEEDUP; the daemon's watchdog notices the silence on the wall clock (3 s), and when the
+    # link returns, the vehicle's clock has moved on by far more than the heartbeat timeout.
+    stub, tcp_port, udp_port = start_stub(tmp_path, "--speedup", SPEEDUP,
+                                          "--lockstep-timeout-s", "0.5", scenario=long_scenario,
+                                          lockstep=True)
     relay = UdpRelay(udp_port)
     tlog = tmp_path / "cut.tlog"
-    config = write_config(tmp_path, goal=(2000.0, 0.0), link={"heartbeat_timeout_s": 0.5})
+    config = write_config(tmp_path, goal=(2000.0, 0.0))
     companion = start_companion(tmp_path, f"udpout:127.0.0.1:{relay.port}", config,
-                                "--tlog", str(tlog))
+                                "--tlog", str(tlog), lockstep=True)
     try:
         gcs = GroundStation(tcp_port)
         gcs.fly_from_the_ground()
         wait_until(lambda: len(companion_setpoints(read_tlog(tlog))) >= 10, 15.0, "setpoints")
         relay.cut = True
-        wait_until(lambda: "no vehicle heartbeat" in companion.stderr(), 5.0,
+        wait_until(lambda: "no vehicle heartbeat" in companion.stderr(), 10.0,
                    "the watchdog to notice the silence")
         sent_during_cut = len(companion_setpoints(read_tlog(tlog)))
         assert companion.proc.poll() is None

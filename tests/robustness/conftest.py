@@ -40,12 +40,13 @@ def recording(tmp_path_factory) -> Recording:
     """One short flight of the paper's scenario (stub + daemon + ground station), recorded by
     the daemon's tlog; the stream the daemon received, packet by packet."""
     tmp = tmp_path_factory.mktemp("recording")
-    stub, tcp_port, udp_port = start_stub(tmp, "--speedup", "10", "--seed", "1")
+    stub, tcp_port, udp_port = start_stub(tmp, "--speedup", "10", "--seed", "1", lockstep=True)
     processes = [stub]
     try:
         config = write_config(tmp, goal=(180.0, 0.0))
         tlog = tmp / "flight.tlog"
-        daemon = start_companion(tmp, f"udpout:127.0.0.1:{udp_port}", config, "--tlog", str(tlog))
+        daemon = start_companion(tmp, f"udpout:127.0.0.1:{udp_port}", config, "--tlog", str(tlog),
+                                 lockstep=True)
         processes.append(daemon)
         gcs = GroundStation(tcp_port)
         gcs.fly_from_the_ground()
