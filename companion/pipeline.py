@@ -398,8 +398,10 @@ class Pipeline:
         if (reports or due) and self.goal_ne is not None:
             self._decide(t_link_s, lpn.t_s, out)
         # After the decision: a lock-step stub takes our ODOMETRY as the sign that everything we
-        # do for this sample has been sent (companion/lockstep.py).
-        self._maybe_publish_pose(lpn.t_s, out)
+        # do for this sample has been sent (companion/lockstep.py). A diverged estimator is
+        # restarted by the decision (navigator None until the next good sample): nothing to say.
+        if self.navigator is not None:
+            self._maybe_publish_pose(lpn.t_s, out)
 
     def _make_navigator(self, north_m: float, east_m: float, yaw_rad: float) -> Navigator:
         est = self.config.estimator
