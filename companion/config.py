@@ -21,7 +21,8 @@ from companion.errors import ConfigError
 from companion.flight_phase import FlightPhaseParams
 
 
-PLAUSIBLE_SPEED_MPS = 50.0       # faster is no multicopter (the pipeline refuses such odometry)
+PLAUSIBLE_SPEED_MPS = 50.0
+UNICYCLE_AS_COPTER_YAW_SIGMA_DEG = 0.5   # Scenario.estimator_config(flown_as='multicopter')       # faster is no multicopter (the pipeline refuses such odometry)
 
 
 def _positive(key: str, value: float) -> None:
@@ -387,8 +388,14 @@ class Scenario:
             return self.estimator
         noise = self.noise
         copter = self.vehicle.kind == "multicopter" or flown_as == "multicopter"
-        velocity_sigma_mps = noise.velocity_sigma_mps if self.vehicle.kind == "multicopter" \
-            else math.hypot(noise.velocity_sigma_mps, noise.speed_sigma_mps)
+        if self.vehicle.kind == "multicopter":
+            velocity_sigma_mps, yaw_sigma_deg = noise.velocity_sigma_mps, noise.yaw_sigma_deg
+        else:
+            # The stub's unicycle odometry: speed noise along the heading, and a gyro-integrated
+            # yaw with no compass noise, drifting 0.02 deg a sample (paper.yaml): 0.5 deg covers
+            # about 600 samples of that drift (a choice).
+            velocity_sigma_mps = math.hypot(noise.velocity_sigma_mps, noise.speed_sigma_mps)
+            yaw_sigma_deg = UNICYCLE_AS_COPTER_YAW_SIGMA_DEG
         return EstimatorConfig(
             speed_sigma_mps=noise.speed_sigma_mps,
             heading_change_sigma_deg=noise.heading_change_sigma_deg,
@@ -398,7 +405,7 @@ class Scenario:
             vel_north_sigma_mps=max(velocity_sigma_mps, 1e-6),
             vel_east_sigma_mps=max(velocity_sigma_mps, 1e-6),
             yaw_rate_sigma_deg_s=max(noise.yaw_rate_sigma_deg_s, 1e-6),
-            yaw_sigma_deg=max(noise.yaw_sigma_deg, 1e-6),
+            yaw_sigma_deg=max(yaw_sigma_deg, 1e-6),
             position_fusion="auto" if copter else "off",
             # The unicycle's 2-sigma radius reaches 2.4 m at the end of 300 m legs (dense and
             # moving worlds, measured): 3 m keeps the paper's figures; the multicopter's 2 m.
