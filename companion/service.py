@@ -55,6 +55,7 @@ STREAMS = ((codec.MSG_ID_ATTITUDE, "attitude_rate_hz"),
            (codec.MSG_ID_GLOBAL_POSITION_INT, "global_position_rate_hz"),
            (codec.MSG_ID_GPS_RAW_INT, "gps_raw_rate_hz"),                # position fusion 'auto'
            (codec.MSG_ID_EKF_STATUS_REPORT, "ekf_status_rate_hz"))
+ODOMETRY_STREAMS = (codec.MSG_ID_ATTITUDE, codec.MSG_ID_LOCAL_POSITION_NED)
 GEO_REFERENCE_RETRY_S = 2.0      # a lat/lon goal: ask for GPS_GLOBAL_ORIGIN and HOME this often
 
 
@@ -93,7 +94,10 @@ class Service:
         self.stop = asyncio.Event()
         self._odometry_seen = asyncio.Event()
         streams = config.streams
-        self.rates = StreamRateWatch({msg_id: getattr(streams, key) for msg_id, key in STREAMS},
+        # The odometry streams' rates are watched (what the estimate and the setpoints run on);
+        # the slow ones (landed state, GPS health) are asked for with them.
+        self.rates = StreamRateWatch({msg_id: getattr(streams, key) for msg_id, key in STREAMS
+                                      if msg_id in ODOMETRY_STREAMS},
                                      streams.rate_check_s, streams.min_rate_fraction,
                                      streams.max_reasserts)
         self.notices = NoticeLimiter(config.safety.statustext_repeat_s,

@@ -40,8 +40,8 @@ def feed(pipeline, items) -> list:
 
 
 def synthetic_flight(pipeline, t_link_s: float, seconds: float, camera_heartbeats=False):
-    """The vehicle flying on north at 5 m/s for ``seconds`` after the pipeline's latest time:
-    ATTITUDE and LOCAL_POSITION_NED at 10 Hz, heartbeats (armed, GUIDED) at 1 Hz; no frames."""
+    """The vehicle flying on north at 5 m/s, 10 m up, for ``seconds`` after the pipeline's latest
+    time: ATTITUDE and LOCAL_POSITION_NED at 10 Hz, heartbeats (armed, GUIDED) at 1 Hz; no frames."""
     nav = pipeline.navigator
     north_m, east_m, yaw = (float(v) for v in nav.slam.pose)
     t_s = pipeline.latest_t_s
@@ -58,7 +58,8 @@ def synthetic_flight(pipeline, t_link_s: float, seconds: float, camera_heartbeat
         east_m += 0.5 * math.sin(yaw)
         items.append((t_link_s, codec.Attitude(1, 1, round(t_s, 3), yaw, 0.0)))
         items.append((t_link_s, codec.LocalPosition(1, 1, round(t_s, 3), north_m, east_m,
-                                                    5.0 * math.cos(yaw), 5.0 * math.sin(yaw))))
+                                                    5.0 * math.cos(yaw), 5.0 * math.sin(yaw),
+                                                    down_m=-10.0, vel_down_mps=0.0)))   # airborne
     return items
 
 
