@@ -154,6 +154,16 @@ def test_the_sector_form_when_asked():
     assert of_type(fly(ready_camera(), 1000, 1100, north_m=20.0), "OBSTACLE_DISTANCE") == []
 
 
+def test_a_frame_that_sees_nothing_is_still_sent():
+    """An empty frame (every sector beyond max_distance) tells the companion the camera is live:
+    it judges liveness by obstacle messages, never by heartbeats (without this the service held
+    the real ArduCopter at the start, the first obstacle 40.3 m away, out of range)."""
+    out = fly(ready_camera(), 1000, 1100, north_m=0.0)
+    assert of_type(out, "OBSTACLE_DISTANCE_3D") == []
+    (empty,) = of_type(out, "OBSTACLE_DISTANCE")
+    assert all(d > empty.max_distance for d in empty.distances)
+
+
 def test_commands_to_the_camera_are_unsupported():
     cam = ready_camera()
     cmd = heard(255, 190, mavlink.MAVLink_command_long_message(
