@@ -46,6 +46,9 @@ class RunOutcome:
 
 def make_navigator(scenario: Scenario, strategy: str | None = None) -> Navigator:
     est = scenario.estimator_config()
+    if est.sensor_fov_deg is None and est.sensor_max_range_m is None:    # the camera's own view
+        est = dataclasses.replace(est, sensor_fov_deg=scenario.sensor.fov_deg,
+                                  sensor_max_range_m=scenario.sensor.max_range_m)
     start = scenario.world.start
     pose = np.array([start.north_m, start.east_m, wrap_angle(start.yaw_rad)])
     pose_cov = np.diag([est.initial_position_sigma_m ** 2, est.initial_position_sigma_m ** 2,
@@ -163,6 +166,11 @@ def run_once(scenario: Scenario, seed: int, strategy: str | None = None) -> RunO
         "estimator_state_changes": [[round(h.t_s, 3), h.state, h.reason]
                                     for h in nav.health_changes],
         "position_fixes": dict(nav.position_fixes),
+        "landmarks": {"final": nav.slam.landmark_count,
+                      "final_confirmed": sum(nav.lifecycle.state(k) == "confirmed"
+                                             for k in nav.slam.landmark_ids()),
+                      "obstacles_seen": len(truth.seen_ids),
+                      **nav.lifecycle.counts},
     }
     return RunOutcome(summary, trace, nav.slam.landmarks(), nav.slam.landmark_covs(),
                       truth.obstacle_positions())
@@ -232,7 +240,24 @@ def aggregate_summaries(summaries: list[dict], pose_nees: list, safety_distance_
         },
         "path_length_m": {"median": float(np.median([s["path_length_m"] for s in summaries]))},
         "arrivals": arrival_figures(summaries),
+        "landmarks": landmark_figures(summaries),
     }
+
+
+def landmark_figures(summaries: list[dict]) -> dict:
+    """Landmarks left in the map at the end against the obstacles the camera had in view, and
+    the lifecycle's counters, summed over the runs."""
+    rows = [s["landmarks"] for s in summaries if "landmarks" in s]
+    if not rows:
+        return {}
+    ratios = [r["final"] / r["obstacles_seen"] for r in rows if r["obstacles_seen"]]
+    total = {key: sum(r[key] for r in rows)
+             for key in ("final", "final_confirmed", "obstacles_seen", "confirmed", "deleted",
+                         "expired")}
+    return {**total,
+            "final_per_obstacle_seen": (total["final"] / total["obstacles_seen"]
+                                        if total["obstacles_seen"] else None),
+            "max_run_ratio": max(ratios, default=None)}
 
 
 def arrival_figures(summaries: list[dict]) -> dict:

@@ -17,6 +17,8 @@ from companion.config import Scenario
 from companion.core.ekf_slam import Observation
 from companion.core.geometry import is_visible, move, wrap_angle
 
+FALSE_ALARM_MIN_RANGE_M = 0.5
+
 
 @dataclass(frozen=True)
 class Odometry:
@@ -57,6 +59,7 @@ class TruthWorld:
         # stays as it was).
         self.vel_ne_mps = self.speed_mps * np.array([math.cos(self.pose[2]), math.sin(self.pose[2])])
         self._gps_bias_m: np.ndarray | None = None
+        self.seen_ids: set[int] = set()          # obstacles ever in the camera's view
 
     def obstacle_positions(self) -> np.ndarray:
         """True obstacle centres now, (n, 2)."""
@@ -127,6 +130,7 @@ class TruthWorld:
             bearing = wrap_angle(math.atan2(d[1], d[0]) - self.pose[2])
             if not is_visible(range_m, bearing, sensor.fov_rad, sensor.max_range_m):
                 continue
+            self.seen_ids.add(oid)
             if sensor.miss_probability and rng.random() < sensor.miss_probability:
                 continue
             frame.append(Observation(
@@ -134,7 +138,10 @@ class TruthWorld:
                 wrap_angle(bearing + rng.normal(0.0, sensor.bearing_sigma_rad)),
                 oid if sensor.report_ids else None))
         if sensor.false_alarm_rate_hz:
+            # Clutter uniform over the area of the view (a spatial Poisson process, the usual
+            # clutter model, and what the stub draws): the range's density grows with the range.
+            # Uniform in range would put half the false alarms within 20 m of a 40 m camera.
             for _ in range(rng.poisson(sensor.false_alarm_rate_hz / sensor.rate_hz)):
-                frame.append(Observation(rng.uniform(0.5, sensor.max_range_m),
-                                         rng.uniform(-0.5, 0.5) * sensor.fov_rad, None))
+                range_m = max(FALSE_ALARM_MIN_RANGE_M, sensor.max_range_m * math.sqrt(rng.random()))
+                frame.append(Observation(range_m, rng.uniform(-0.5, 0.5) * sensor.fov_rad, None))
         return frame

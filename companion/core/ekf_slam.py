@@ -340,6 +340,10 @@ class EkfSlam:
             return self._add(z, None)
         return UpdateReport("ambiguous", best, None, best_nis, None)
 
+    def add_landmark(self, z: np.ndarray, obstacle_id: int | None = None) -> UpdateReport:
+        """Start a landmark from measurement z (2,) the caller has judged new."""
+        return self._add(np.asarray(z, dtype=float), obstacle_id)
+
     def update_landmark(self, z: np.ndarray, index: int, landmark_only: bool = False) -> UpdateReport:
         """Update with measurement z (2,) of a landmark the caller has already associated."""
         return self._correct(self._innovation(z, index), index, self._index_to_id[index],
@@ -478,6 +482,39 @@ class EkfSlam:
                - (s[:, 0, 1] + s[:, 1, 0]) * innovation[:, 0] * innovation[:, 1]
                + s[:, 0, 0] * innovation[:, 1] ** 2) / det
         return nis, innovation
+
+    def joint_nis(self, z: np.ndarray, indices: Sequence[int]) -> float:
+        """NIS of K observations z (K, 2) taken jointly as measurements of the distinct landmarks
+        ``indices`` (K,): the stacked innovation against the joint S (2K, 2K), which holds the
+        observations' correlation through the shared pose. Chi-square with 2K dof when every
+        pairing is right (joint compatibility, Neira and Tardos 2001)."""
+        indices = np.asarray(indices, dtype=int)
+        k_obs, n = len(indices), self._dim
+        if k_obs == 0:
+            return 0.0
+        mean = self._mean_buf
+        lm_cols = (POSE_DIM + LANDMARK_DIM * indices[:, None] + np.arange(2)).ravel()
+        d = mean[lm_cols].reshape(k_obs, 2) - mean[:2]
+        range_sq = np.einsum("ij,ij->i", d, d)
+        range_m = np.sqrt(range_sq)
+        innovation = np.empty((k_obs, 2))
+        innovation[:, 0] = z[:, 0] - range_m
+        innovation[:, 1] = wrap_angles(z[:, 1] - (np.arctan2(d[:, 1], d[:, 0]) - mean[2]))
+        rows = np.arange(k_obs)
+        lm = np.empty((k_obs, 2, 2))
+        lm[:, 0, 0], lm[:, 0, 1] = d[:, 0] / range_m, d[:, 1] / range_m
+        lm[:, 1, 0], lm[:, 1, 1] = -d[:, 1] / range_sq, d[:, 0] / range_sq
+        jac = np.zeros((k_obs, 2, POSE_DIM + 2 * k_obs))
+        jac[:, :, :2] = -lm
+        jac[:, 1, 2] = -1.0
+        jac[:, :, POSE_DIM:].reshape(k_obs, 2, k_obs, 2)[rows, :, rows, :] = lm
+        jac = jac.reshape(2 * k_obs, -1)
+        cols = np.concatenate((np.arange(POSE_DIM), lm_cols))
+        s = jac @ self._cov_buf[:n, :n][np.ix_(cols, cols)] @ jac.T
+        s4 = s.reshape(k_obs, 2, k_obs, 2)
+        s4[rows, :, rows, :] += self._meas_cov
+        v = innovation.ravel()
+        return float(v @ np.linalg.solve(s, v))
 
     def nis_against(self, z: np.ndarray, index: int) -> tuple[float, np.ndarray]:
         """NIS and innovation of z against one landmark."""
