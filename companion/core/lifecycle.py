@@ -35,6 +35,11 @@ class LifecycleParams:
     points inside its gate within a second, over a view of ~1250 m^2. K=8: a real obstacle is
     missed 8 frames running with probability 0.2^8 = 2.6e-6 per chance, and a false landmark is
     gone 1.6 s after the view returns to it.
+    ``tentative_in_guidance`` False (measured, issue 15's cluttered dense worlds, 100 runs): avoiding
+    tentative landmarks has the vehicle dodge every false alarm, 79% success; ignoring them until
+    confirmed, 97%. A real obstacle is confirmed 2 to 4 frames after its first detection (0.4 to
+    0.8 s at 5 Hz, 2 to 4 m at 5 m/s), well inside a 40 m camera's reach; True is the choice for
+    a camera without clutter that first sees obstacles close.
     """
     confirm_hits: int = 3
     confirm_window: int = 5
@@ -46,7 +51,7 @@ class LifecycleParams:
     range_margin_m: float = 2.0
     min_range_m: float = 1.0
     occluder_radius_m: float = 3.0        # a nearer landmark hides what lies within this of its ray
-    tentative_in_guidance: bool = True    # tentative landmarks are avoided (and so slow the vehicle)
+    tentative_in_guidance: bool = False   # see the class docstring
 
     def __post_init__(self) -> None:
         if not 1 <= self.confirm_hits <= self.confirm_window:
@@ -131,9 +136,11 @@ class Lifecycle:
         confirmed, deleted, expired = [], [], []
         for key, should_see in zip(keys, visible.tolist()):
             track = self._tracks.get(key)
-            if track is None or key in added:
+            if track is None:
                 continue
-            if key in detected:
+            if key in added:
+                pass                                  # its birth was its first chance
+            elif key in detected:
                 track.hits += 1
                 track.chances += 1
                 track.misses = 0
