@@ -84,7 +84,7 @@ def observe(north_m: float, east_m: float, yaw_rad: float,
 def sector_distances_cm(detections: list[Detection], cfg: SensorConfig) -> tuple[list[int], float, float]:
     """The 72-sector OBSTACLE_DISTANCE form of one frame.
 
-    Sectors of width fov/72 from -fov/2 (clockwise). Each holds the distance (cm) to the
+    Sectors of width fov/72 from -fov/2 (clockwise); the offset returned is sector 0's centre. Each holds the distance (cm) to the
     nearest obstacle surface (range to centre minus radius) over the obstacle's angular extent;
     max_distance + 1 where nothing is seen (the message's "no obstacle" value).
     Returns (distances_cm, increment_deg, angle_offset_deg).
@@ -102,4 +102,7 @@ def sector_distances_cm(detections: list[Detection], cfg: SensorConfig) -> tuple
         hi = int(math.floor((det.bearing_rad + half_width - start) / increment_rad))
         for i in range(max(0, lo), min(SECTOR_COUNT - 1, hi) + 1):
             dist[i] = min(dist[i], int(round(surface_m * 100)))
-    return dist, math.degrees(increment_rad), math.degrees(start)
+    # angle_offset is the angle of element 0 itself, its centre: ArduPilot's AP_Proximity_MAV reads
+    # element j at angle_offset + j * increment ("mid_angle"). The left edge here would put every
+    # sector half an increment (0.625 deg at 90/72) to the left of where it was measured.
+    return dist, math.degrees(increment_rad), math.degrees(start + 0.5 * increment_rad)

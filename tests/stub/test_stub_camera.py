@@ -83,8 +83,24 @@ def test_sector_form_marks_the_obstacle_sectors():
     cfg = dataclasses.replace(CFG, range_sigma_m=0.0, bearing_sigma_rad=0.0)
     dets = camera.observe(0.0, 0.0, 0.0, [(1, 20.0, 0.0, 2.0)], cfg, np.random.default_rng(0))
     dist, inc_deg, offset_deg = camera.sector_distances_cm(dets, cfg)
-    assert len(dist) == 72 and inc_deg == pytest.approx(1.25) and offset_deg == pytest.approx(-45)
+    assert len(dist) == 72 and inc_deg == pytest.approx(1.25) and offset_deg == pytest.approx(-44.375)
     hit = [i for i, v in enumerate(dist) if v <= 4000]
     assert hit and all(v == 1800 for v in (dist[i] for i in hit))
     assert min(hit) < 36 <= max(hit)      # straddles straight ahead
     assert dist[0] == 4001 and dist[71] == 4001
+
+
+def test_sector_bearing_is_the_bin_centre_as_the_companion_decodes_it():
+    """A thin post 9.375 deg right of the nose, the centre of sector 43: decoded at 9.375 deg
+    (ArduPilot reads element j at angle_offset + j * increment: angle_offset is element 0's centre)."""
+    from companion.adapters.codec import sector_bearings_rad   # the test may import both sides
+    cfg = dataclasses.replace(CFG, range_sigma_m=0.0, bearing_sigma_rad=0.0)
+    post = (1, 30.0 * math.cos(math.radians(9.375)), 30.0 * math.sin(math.radians(9.375)), 0.3)
+    dets = camera.observe(0.0, 0.0, 0.0, [post], cfg, np.random.default_rng(0))
+    dist, inc_deg, offset_deg = camera.sector_distances_cm(dets, cfg)
+    bearings = sector_bearings_rad(0, inc_deg, offset_deg, len(dist))
+    hit = [math.degrees(bearings[i]) for i, v in enumerate(dist) if v <= 4000]
+    assert hit == pytest.approx([9.375])        # the sector's edge would say 8.75
+    # every sector's centre is where the camera measured it: sector i spans
+    # [-45 + 1.25 i, -45 + 1.25 (i + 1)], its centre -44.375 + 1.25 i
+    assert [math.degrees(b) for b in bearings[:2]] == pytest.approx([-44.375, -43.125])
