@@ -163,6 +163,10 @@ class SensorConfig:
     miss_probability: float = 0.0
     false_alarm_rate_hz: float = 0.0
     sector_message: bool = False          # read by the stub only
+    # companion simulate's camera: obstacle centres, depth sectors (nearest surface per bin,
+    # sector_count bins over the view, turned into landmarks by core/blobs.py), or both
+    form: Literal["centres", "sectors", "both"] = "centres"
+    sector_count: int = 72
 
     def __post_init__(self) -> None:
         require(0.0 < self.fov_deg <= 360.0, "fov_deg", self.fov_deg, "a field of view in (0, 360]")
@@ -174,6 +178,8 @@ class SensorConfig:
                 "a probability in [0, 1)")
         require(self.false_alarm_rate_hz >= 0.0, "false_alarm_rate_hz", self.false_alarm_rate_hz,
                 "a rate >= 0")
+        require(2 <= self.sector_count <= 1000, "sector_count", self.sector_count,
+                "an integer in [2, 1000]")
 
     @property
     def fov_rad(self) -> float:

@@ -14,6 +14,7 @@ from filterpy.stats import NEES
 from scipy.stats import chi2
 
 from companion.config import Scenario
+from companion.core.blobs import BlobParams, blob_observations
 from companion.core.consistency import STATES, radius_2sigma_m
 from companion.core.geometry import wrap_angle
 from companion.core.guidance import limit_turn
@@ -75,6 +76,16 @@ def with_position_fusion(scenario: Scenario, position_fusion: str | None) -> Sce
     return dataclasses.replace(scenario, estimator=est)
 
 
+def camera_frame(truth: TruthWorld, blobs: BlobParams) -> list:
+    """What the companion sees of one frame in the scenario's sensor form: centres, the landmarks
+    of the sectors' blobs (core/blobs.py, the companion's side of a depth camera), or both."""
+    form = truth.scenario.sensor.form
+    frame = truth.observe() if form in ("centres", "both") else []
+    if form in ("sectors", "both"):
+        frame += blob_observations(*truth.observe_sectors(), blobs)
+    return frame
+
+
 def run_once(scenario: Scenario, seed: int, strategy: str | None = None) -> RunOutcome:
     """Fly one seeded run of the scenario in-process."""
     truth = TruthWorld(scenario, np.random.default_rng(seed))
@@ -102,7 +113,9 @@ def run_once(scenario: Scenario, seed: int, strategy: str | None = None) -> RunO
         first = truth.copter_odometry(0.0)
         nav.on_velocity(0.0, first.vel_north_mps, first.vel_east_mps, first.yaw_rad,
                         first.yaw_rate_rad_s)
-    nav.observe(truth.observe())
+    blobs = BlobParams(range_sigma_m=scenario.sensor.range_sigma_m,
+                       bearing_sigma_rad=scenario.sensor.bearing_sigma_rad)
+    nav.observe(camera_frame(truth, blobs))
     for step in range(1, max_steps + 1):
         command, change = nav.decide(truth.t_s)
         if change is not None and change.landmark_index is not None:
@@ -132,7 +145,7 @@ def run_once(scenario: Scenario, seed: int, strategy: str | None = None) -> RunO
             nav.predict(odo.speed_mps, odo.heading_change_rad, dt)
         path_m += float(np.hypot(*(truth.pose[:2] - before)))
         if step % obs_every == 0:
-            nav.observe(truth.observe())
+            nav.observe(camera_frame(truth, blobs))
         gaps = np.hypot(*(truth.obstacle_positions() - truth.pose[:2]).T) if len(truth.obstacle_ids) else np.array([])
         if gaps.size:
             min_clearance = min(min_clearance, float(gaps.min()))

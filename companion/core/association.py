@@ -30,14 +30,16 @@ class Pairing:
     nis: float | None
 
 
-def associate_frame(slam: EkfSlam, z: np.ndarray,
-                    joint_probability: float = JOINT_PROBABILITY) -> list[Pairing]:
-    """Pairings for the observations z (K, 2) [range_m, bearing_rad] against the map's landmarks."""
+def associate_frame(slam: EkfSlam, z: np.ndarray, joint_probability: float = JOINT_PROBABILITY,
+                    meas_covs: list | None = None) -> list[Pairing]:
+    """Pairings for the observations z (K, 2) [range_m, bearing_rad] against the map's landmarks.
+    ``meas_covs``: each observation's R (2,2) or None (the filter's)."""
     k_obs, n = len(z), slam.landmark_count
     if n == 0:
         return [Pairing("new", None, None) for _ in range(k_obs)]
     gates = slam.gates
-    nis = np.array([slam.nis_all(z[k])[0] for k in range(k_obs)]).reshape(k_obs, n)
+    covs = meas_covs if meas_covs is not None else [None] * k_obs
+    nis = np.array([slam.nis_all(z[k], covs[k])[0] for k in range(k_obs)]).reshape(k_obs, n)
     assigned: dict[int, int] = {}
     taken: set[int] = set()
     for flat in np.argsort(nis, axis=None, kind="stable"):
@@ -51,7 +53,7 @@ def associate_frame(slam: EkfSlam, z: np.ndarray,
     refused: set[int] = set()
     while assigned:
         obs = sorted(assigned)
-        joint = slam.joint_nis(z[obs], [assigned[k] for k in obs])
+        joint = slam.joint_nis(z[obs], [assigned[k] for k in obs], _stack(covs, obs, slam))
         if joint <= chi2_quantile(joint_probability, 2 * len(obs)):
             break
         worst = max(obs, key=lambda k: nis[k, assigned[k]])
@@ -68,3 +70,11 @@ def associate_frame(slam: EkfSlam, z: np.ndarray,
         else:
             out.append(Pairing("new", None, float(nis[k, best])))
     return out
+
+
+def _stack(covs: list, obs: list[int], slam: EkfSlam) -> np.ndarray | None:
+    """The R of observations ``obs`` as (K, 2, 2); None when every one is the filter's."""
+    if all(covs[k] is None for k in obs):
+        return None
+    default = slam.noise.measurement_cov()
+    return np.array([default if covs[k] is None else covs[k] for k in obs])

@@ -294,7 +294,8 @@ class Navigator:
         ids = self.slam.landmark_ids()
         plans = {id(obs): (p.action, ids[p.index] if p.index is not None else None)
                  for obs, p in zip(anonymous, associate_frame(
-                     self.slam, np.array([[o.range_m, o.bearing_rad] for o in anonymous])))}
+                     self.slam, np.array([[o.range_m, o.bearing_rad] for o in anonymous]),
+                     meas_covs=[o.meas_cov_array() for o in anonymous]))}
         for obs in observations:
             report = self._observe_one(obs, used, plans.get(id(obs)))
             if report.action in ("updated", "added") and report.landmark_index is not None:
@@ -368,7 +369,8 @@ class Navigator:
         ids = slam.landmark_ids()
         if action == "update" and key in ids:
             index = ids.index(key)
-            report = slam.update_landmark(z, index, landmark_only=self._schmidt(key))
+            report = slam.update_landmark(z, index, landmark_only=self._schmidt(key),
+                                          meas_cov=obs.meas_cov_array())
             if not self._schmidt(key):
                 self.monitor.add(self.clock_s, report.nis, 2)
             self._note_young(key, obs, report.action)
@@ -385,7 +387,8 @@ class Navigator:
         if action == "ambiguous" and key in ids:
             self._frame_near.add(key)
             return UpdateReport("ambiguous", ids.index(key), None, None, None)
-        report = slam.add_landmark(z) if action == "new" else slam.update(obs, exclude=used)
+        report = slam.add_landmark(z, None, obs.meas_cov_array()) if action == "new" \
+            else slam.update(obs, exclude=used)
         if report.action == "added":
             key = self._next_anonymous_id
             self._next_anonymous_id -= 1
@@ -477,7 +480,8 @@ class Navigator:
     def _world_point(self, obs: Observation) -> tuple[np.ndarray, np.ndarray]:
         return world_measurement(self.slam.pose, self.slam.pose_cov,
                                  np.array([obs.range_m, obs.bearing_rad]),
-                                 self.slam.noise.measurement_cov())
+                                 obs.meas_cov_array() if obs.meas_cov is not None
+                                 else self.slam.noise.measurement_cov())
 
     def _update_mover(self, track_id: int, obs: Observation) -> UpdateReport:
         point, cov = self._world_point(obs)
