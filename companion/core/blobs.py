@@ -10,7 +10,11 @@ wider blob is a wall, a fence, a building's face: a chain of surface points no f
 R comes from the bin geometry. Each edge of a blob lies somewhere inside its edge bin (uniform:
 increment^2 / 12 each), so a compact blob's centre bearing has variance increment^2 / 24 and its
 radius the matching spread; a chain point stands for ``chain_spacing_m`` of surface either side,
-an isotropic spread of spacing^2 / 12. The sensor's own per-bin noise adds to both.
+an isotropic spread of spacing^2 / 12. The sensor's own per-bin noise adds to both. The
+quantisation error is not white: from nearly the same viewpoint the same bins are hit frame
+after frame, so the filter would count one error many times. ``correlation_inflation``
+multiplies the geometric variances (a choice, 4: sigma doubled; measured on dense sector
+worlds, NEES in band on 80% of steps uninflated).
 Bearings are bin centres, right positive, from the heading.
 """
 from __future__ import annotations
@@ -30,6 +34,7 @@ class BlobParams:
     max_jump_m: float = 2.0               # a larger range step between neighbours splits a blob
     compact_width_m: float = 6.0          # the widest post (3 m radius in the random worlds)
     chain_spacing_m: float = 4.0          # a choice: under half the 10 m safety distance
+    correlation_inflation: float = 4.0
 
     def __post_init__(self) -> None:
         if self.chain_spacing_m <= 0 or self.compact_width_m <= 0 or self.max_jump_m <= 0:
@@ -95,7 +100,7 @@ def _compact(surface_m: float, bearing_rad: float, half_rad: float, bins: int,
     sin_a = math.sin(half_rad)
     radius = surface_m * sin_a / (1.0 - sin_a)
     d_radius = surface_m * math.cos(half_rad) / (1.0 - sin_a) ** 2     # dR / da
-    edge_var = increment_rad ** 2 / 24.0                               # var of a = width / 2 too
+    edge_var = params.correlation_inflation * increment_rad ** 2 / 24.0   # var of a = width / 2 too
     var_r = params.range_sigma_m ** 2 + d_radius ** 2 * edge_var
     var_b = edge_var + params.bearing_sigma_rad ** 2 / bins
     return Observation(surface_m + radius, bearing_rad, None, ((var_r, 0.0), (0.0, var_b)))
@@ -110,11 +115,12 @@ def _chain(ranges_m: np.ndarray, bearings_rad: np.ndarray, increment_rad: float,
             picked.append(i)
     if picked[-1] != len(points) - 1:
         picked.append(len(points) - 1)         # the blob's end: where the wall stops
-    spread = params.chain_spacing_m ** 2 / 12.0
+    spread = params.correlation_inflation * params.chain_spacing_m ** 2 / 12.0
     out = []
     for i in picked:
         r = float(ranges_m[i])
         var_r = params.range_sigma_m ** 2 + spread
-        var_b = params.bearing_sigma_rad ** 2 + increment_rad ** 2 / 12.0 + spread / (r * r)
+        var_b = (params.bearing_sigma_rad ** 2 + spread / (r * r)
+                 + params.correlation_inflation * increment_rad ** 2 / 12.0)
         out.append(Observation(r, float(bearings_rad[i]), None, ((var_r, 0.0), (0.0, var_b))))
     return out

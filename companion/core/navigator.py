@@ -409,7 +409,9 @@ class Navigator:
             # The multicopter's dead-reckoned yaw is the autopilot's, noisy per sample.
             yaw_sigma = self.options.yaw_sigma_rad \
                 if self.options.motion_model == "velocity_ned" else 0.0
-            young.sigmas.append(math.hypot(self._point_sigma_m, obs.range_m * self._turn_rate_rad_s
+            point_sigma = self._point_sigma_m if obs.meas_cov is None else math.sqrt(
+                obs.meas_cov[0][0] + obs.range_m ** 2 * obs.meas_cov[1][1])
+            young.sigmas.append(math.hypot(point_sigma, obs.range_m * self._turn_rate_rad_s
                                            * self._frame_timing_s, obs.range_m * yaw_sigma))
             young.last_obs = obs
 

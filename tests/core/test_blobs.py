@@ -43,7 +43,8 @@ def test_a_post_becomes_one_landmark_at_its_centre():
     assert np.hypot(*(centre - (north, east))) < 1.0
     var_r, var_b = obs[0].meas_cov[0][0], obs[0].meas_cov[1][1]
     # the bearing is known to a fraction of a bin, the range to the radius's spread
-    assert math.sqrt(var_b) == pytest.approx(increment / math.sqrt(24.0), rel=0.05)
+    assert math.sqrt(var_b) == pytest.approx(
+        math.sqrt(PARAMS.correlation_inflation / 24.0) * increment, rel=0.05)
     assert 0.05 < math.sqrt(var_r) < 2.0
 
 
