@@ -124,3 +124,11 @@ def _chain(ranges_m: np.ndarray, bearings_rad: np.ndarray, increment_rad: float,
                  + params.correlation_inflation * increment_rad ** 2 / 12.0)
         out.append(Observation(r, float(bearings_rad[i]), None, ((var_r, 0.0), (0.0, var_b))))
     return out
+
+
+def sector_observations(sectors: tuple, params: BlobParams = BlobParams()) -> list[Observation]:
+    """``blob_observations`` of a decoded OBSTACLE_DISTANCE: (ranges_m with NaN where nothing,
+    bin-centre bearings_rad, increment_rad), as codec.ObstacleFrame.sectors holds it."""
+    ranges_m, bearings_rad, increment_rad = sectors
+    return blob_observations(np.asarray(ranges_m, dtype=float), np.asarray(bearings_rad, dtype=float),
+                             float(increment_rad), params)
