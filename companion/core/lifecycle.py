@@ -92,14 +92,13 @@ def expected_visible(pose: np.ndarray, points: np.ndarray, params: LifecyclePara
     inside = ((range_m >= params.min_range_m)
               & (range_m <= params.max_range_m - params.range_margin_m)
               & (np.abs(bearing) <= 0.5 * params.fov_rad - params.edge_margin_rad))
+    # the half angle each landmark hides behind it (all of the view when the vehicle is at it)
+    half = np.arcsin(np.minimum(1.0, params.occluder_radius_m / np.maximum(range_m, 1e-9)))
     for i in np.flatnonzero(inside):
-        for j in range(n):
-            if j == i or range_m[j] >= range_m[i] or range_m[j] <= 0.0:
-                continue
-            half = math.asin(min(1.0, params.occluder_radius_m / range_m[j]))
-            if abs(wrap_angle(bearing[i] - bearing[j])) <= half:
-                inside[i] = False
-                break
+        gap = np.abs(np.angle(np.exp(1j * (bearing[i] - bearing))))
+        hidden = (range_m < range_m[i]) & (gap <= half)
+        hidden[i] = False
+        inside[i] = not hidden.any()
     return inside
 
 
