@@ -16,6 +16,7 @@ from companion.core.ekf_slam import AssociationGates, SlamNoise, VelocityNoise
 from companion.core.guidance import GuidanceParams
 from companion.core.movers import MoverParams
 from companion.core.estimator_options import EstimatorOptions
+from companion.core.lifecycle import LifecycleParams
 from companion.core.union import UnionParams
 from companion.errors import ConfigError
 from companion.flight_phase import FlightPhaseParams
@@ -162,6 +163,10 @@ class SensorConfig:
     miss_probability: float = 0.0
     false_alarm_rate_hz: float = 0.0
     sector_message: bool = False          # read by the stub only
+    # companion simulate's camera: obstacle centres, depth sectors (nearest surface per bin,
+    # sector_count bins over the view, turned into landmarks by core/blobs.py), or both
+    form: Literal["centres", "sectors", "both"] = "centres"
+    sector_count: int = 72
 
     def __post_init__(self) -> None:
         require(0.0 < self.fov_deg <= 360.0, "fov_deg", self.fov_deg, "a field of view in (0, 360]")
@@ -173,6 +178,8 @@ class SensorConfig:
                 "a probability in [0, 1)")
         require(self.false_alarm_rate_hz >= 0.0, "false_alarm_rate_hz", self.false_alarm_rate_hz,
                 "a rate >= 0")
+        require(2 <= self.sector_count <= 1000, "sector_count", self.sector_count,
+                "an integer in [2, 1000]")
 
     @property
     def fov_rad(self) -> float:
@@ -280,6 +287,17 @@ class EstimatorConfig:
     mover_speed_threshold_mps: float = MoverParams().speed_threshold_mps
     mover_speed_sigmas: float = MoverParams().speed_sigmas
     mover_strikes: int = MoverParams().strikes_to_mover
+    # Landmark lifecycle (core/lifecycle.py gives the reasons for the defaults): confirmed after
+    # confirm_hits detections in its first confirm_window chances, deleted after delete_misses
+    # chances in a row unseen. A chance needs the camera's view: sensor_fov_deg and
+    # sensor_max_range_m (a scenario fills them from its sensor; null: no deletion).
+    confirm_hits: int = LifecycleParams().confirm_hits
+    confirm_window: int = LifecycleParams().confirm_window
+    delete_misses: int = LifecycleParams().delete_misses
+    tentative_timeout_s: float = LifecycleParams().tentative_timeout_s
+    tentative_in_guidance: bool = LifecycleParams().tentative_in_guidance
+    sensor_fov_deg: float | None = None
+    sensor_max_range_m: float | None = None
 
     def __post_init__(self) -> None:
         for key in ("speed_sigma_mps", "heading_change_sigma_deg", "range_sigma_m",
@@ -312,6 +330,24 @@ class EstimatorConfig:
         require(self.mover_speed_threshold_mps >= 0.0, "mover_speed_threshold_mps",
                 self.mover_speed_threshold_mps, "a speed >= 0")
         require(self.mover_strikes >= 1, "mover_strikes", self.mover_strikes, "an integer >= 1")
+        require(self.confirm_hits >= 1, "confirm_hits", self.confirm_hits, "an integer >= 1")
+        require(self.confirm_window >= self.confirm_hits, "confirm_window", self.confirm_window,
+                f"an integer >= confirm_hits ({self.confirm_hits})")
+        require(self.delete_misses >= 1, "delete_misses", self.delete_misses, "an integer >= 1")
+        _positive("tentative_timeout_s", self.tentative_timeout_s)
+        if self.sensor_fov_deg is not None:
+            require(0.0 < self.sensor_fov_deg <= 360.0, "sensor_fov_deg", self.sensor_fov_deg,
+                    "a field of view in (0, 360] or null")
+        if self.sensor_max_range_m is not None:
+            _positive("sensor_max_range_m", self.sensor_max_range_m)
+
+    def lifecycle_params(self) -> LifecycleParams:
+        fov = None if self.sensor_fov_deg is None else math.radians(self.sensor_fov_deg)
+        return LifecycleParams(confirm_hits=self.confirm_hits, confirm_window=self.confirm_window,
+                               delete_misses=self.delete_misses,
+                               tentative_timeout_s=self.tentative_timeout_s, fov_rad=fov,
+                               max_range_m=self.sensor_max_range_m,
+                               tentative_in_guidance=self.tentative_in_guidance)
 
     def velocity_noise(self) -> VelocityNoise:
         return VelocityNoise(self.vel_north_sigma_mps, self.vel_east_sigma_mps,
@@ -329,7 +365,7 @@ class EstimatorConfig:
                                   degraded_radius_m=self.degraded_radius_m,
                                   lost_radius_m=self.lost_radius_m),
             degraded_reaction=self.degraded_reaction, lost_reaction=self.lost_reaction,
-            slow_factor=self.slow_factor)
+            slow_factor=self.slow_factor, lifecycle=self.lifecycle_params())
 
     def mover_params(self) -> MoverParams:
         return MoverParams(strikes_to_mover=self.mover_strikes, probation_s=self.mover_probation_s,
@@ -407,6 +443,7 @@ class Scenario:
             yaw_rate_sigma_deg_s=max(noise.yaw_rate_sigma_deg_s, 1e-6),
             yaw_sigma_deg=max(yaw_sigma_deg, 1e-6),
             position_fusion="auto" if copter else "off",
+            sensor_fov_deg=self.sensor.fov_deg, sensor_max_range_m=self.sensor.max_range_m,
             # The unicycle's 2-sigma radius reaches 2.4 m at the end of 300 m legs (dense and
             # moving worlds, measured): 3 m keeps the paper's figures; the multicopter's 2 m.
             arrival_tolerance_m=2.0 if copter else 3.0,

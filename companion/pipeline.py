@@ -38,6 +38,7 @@ import numpy as np
 from companion import odometry_intake
 from companion.adapters import codec
 from companion.config import CompanionConfig, GoalConfig
+from companion.core.blobs import sector_observations
 from companion.core.geometry import wrap_angle
 from companion.core.guidance import limit_turn
 from companion.core.navigator import Navigator
@@ -464,6 +465,8 @@ class Pipeline:
             self._count("observation_implausible_range")
             if not observations:
                 return
+        if frame.sectors is not None:        # a depth camera: its blobs, not a landmark per bin
+            observations = sector_observations(frame.sectors)
         reports = self.navigator.on_observations(frame.t_s, observations)
         for report in reports:
             if report.action == "added":

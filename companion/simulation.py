@@ -14,6 +14,7 @@ from filterpy.stats import NEES
 from scipy.stats import chi2
 
 from companion.config import Scenario
+from companion.core.blobs import BlobParams, blob_observations
 from companion.core.consistency import STATES, radius_2sigma_m
 from companion.core.geometry import wrap_angle
 from companion.core.guidance import limit_turn
@@ -46,6 +47,9 @@ class RunOutcome:
 
 def make_navigator(scenario: Scenario, strategy: str | None = None) -> Navigator:
     est = scenario.estimator_config()
+    if est.sensor_fov_deg is None and est.sensor_max_range_m is None:    # the camera's own view
+        est = dataclasses.replace(est, sensor_fov_deg=scenario.sensor.fov_deg,
+                                  sensor_max_range_m=scenario.sensor.max_range_m)
     start = scenario.world.start
     pose = np.array([start.north_m, start.east_m, wrap_angle(start.yaw_rad)])
     pose_cov = np.diag([est.initial_position_sigma_m ** 2, est.initial_position_sigma_m ** 2,
@@ -70,6 +74,16 @@ def with_position_fusion(scenario: Scenario, position_fusion: str | None) -> Sce
         return scenario
     est = dataclasses.replace(scenario.estimator_config(), position_fusion=position_fusion)
     return dataclasses.replace(scenario, estimator=est)
+
+
+def camera_frame(truth: TruthWorld, blobs: BlobParams) -> list:
+    """What the companion sees of one frame in the scenario's sensor form: centres, the landmarks
+    of the sectors' blobs (core/blobs.py, the companion's side of a depth camera), or both."""
+    form = truth.scenario.sensor.form
+    frame = truth.observe() if form in ("centres", "both") else []
+    if form in ("sectors", "both"):
+        frame += blob_observations(*truth.observe_sectors(), blobs)
+    return frame
 
 
 def run_once(scenario: Scenario, seed: int, strategy: str | None = None) -> RunOutcome:
@@ -99,7 +113,9 @@ def run_once(scenario: Scenario, seed: int, strategy: str | None = None) -> RunO
         first = truth.copter_odometry(0.0)
         nav.on_velocity(0.0, first.vel_north_mps, first.vel_east_mps, first.yaw_rad,
                         first.yaw_rate_rad_s)
-    nav.observe(truth.observe())
+    blobs = BlobParams(range_sigma_m=scenario.sensor.range_sigma_m,
+                       bearing_sigma_rad=scenario.sensor.bearing_sigma_rad)
+    nav.observe(camera_frame(truth, blobs))
     for step in range(1, max_steps + 1):
         command, change = nav.decide(truth.t_s)
         if change is not None and change.landmark_index is not None:
@@ -129,7 +145,7 @@ def run_once(scenario: Scenario, seed: int, strategy: str | None = None) -> RunO
             nav.predict(odo.speed_mps, odo.heading_change_rad, dt)
         path_m += float(np.hypot(*(truth.pose[:2] - before)))
         if step % obs_every == 0:
-            nav.observe(truth.observe())
+            nav.observe(camera_frame(truth, blobs))
         gaps = np.hypot(*(truth.obstacle_positions() - truth.pose[:2]).T) if len(truth.obstacle_ids) else np.array([])
         if gaps.size:
             min_clearance = min(min_clearance, float(gaps.min()))
@@ -163,6 +179,11 @@ def run_once(scenario: Scenario, seed: int, strategy: str | None = None) -> RunO
         "estimator_state_changes": [[round(h.t_s, 3), h.state, h.reason]
                                     for h in nav.health_changes],
         "position_fixes": dict(nav.position_fixes),
+        "landmarks": {"final": nav.slam.landmark_count,
+                      "final_confirmed": sum(nav.lifecycle.state(k) == "confirmed"
+                                             for k in nav.slam.landmark_ids()),
+                      "obstacles_seen": len(truth.seen_ids),
+                      **nav.lifecycle.counts},
     }
     return RunOutcome(summary, trace, nav.slam.landmarks(), nav.slam.landmark_covs(),
                       truth.obstacle_positions())
@@ -232,7 +253,24 @@ def aggregate_summaries(summaries: list[dict], pose_nees: list, safety_distance_
         },
         "path_length_m": {"median": float(np.median([s["path_length_m"] for s in summaries]))},
         "arrivals": arrival_figures(summaries),
+        "landmarks": landmark_figures(summaries),
     }
+
+
+def landmark_figures(summaries: list[dict]) -> dict:
+    """Landmarks left in the map at the end against the obstacles the camera had in view, and
+    the lifecycle's counters, summed over the runs."""
+    rows = [s["landmarks"] for s in summaries if "landmarks" in s]
+    if not rows:
+        return {}
+    ratios = [r["final"] / r["obstacles_seen"] for r in rows if r["obstacles_seen"]]
+    total = {key: sum(r[key] for r in rows)
+             for key in ("final", "final_confirmed", "obstacles_seen", "confirmed", "deleted",
+                         "expired")}
+    return {**total,
+            "final_per_obstacle_seen": (total["final"] / total["obstacles_seen"]
+                                        if total["obstacles_seen"] else None),
+            "max_run_ratio": max(ratios, default=None)}
 
 
 def arrival_figures(summaries: list[dict]) -> dict:

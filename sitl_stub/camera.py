@@ -84,7 +84,7 @@ def observe(north_m: float, east_m: float, yaw_rad: float,
 def sector_distances_cm(detections: list[Detection], cfg: SensorConfig) -> tuple[list[int], float, float]:
     """The 72-sector OBSTACLE_DISTANCE form of one frame.
 
-    Sectors of width fov/72 from -fov/2 (clockwise). Each holds the distance (cm) to the
+    Sectors of width fov/72 from -fov/2 (clockwise); the offset returned is sector 0's centre. Each holds the distance (cm) to the
     nearest obstacle surface (range to centre minus radius) over the obstacle's angular extent;
     max_distance + 1 where nothing is seen (the message's "no obstacle" value).
     Returns (distances_cm, increment_deg, angle_offset_deg).
@@ -102,4 +102,49 @@ def sector_distances_cm(detections: list[Detection], cfg: SensorConfig) -> tuple
         hi = int(math.floor((det.bearing_rad + half_width - start) / increment_rad))
         for i in range(max(0, lo), min(SECTOR_COUNT - 1, hi) + 1):
             dist[i] = min(dist[i], int(round(surface_m * 100)))
-    return dist, math.degrees(increment_rad), math.degrees(start)
+    # angle_offset is the angle of element 0 itself, its centre: ArduPilot's AP_Proximity_MAV reads
+    # element j at angle_offset + j * increment ("mid_angle"). The left edge here would put every
+    # sector half an increment (0.625 deg at 90/72) to the left of where it was measured.
+    return dist, math.degrees(increment_rad), math.degrees(start + 0.5 * increment_rad)
+
+
+def ray_cast_sectors_cm(north_m: float, east_m: float, yaw_rad: float,
+                        obstacles: list[tuple[int, float, float, float]], cfg: SensorConfig,
+                        rng: np.random.Generator) -> tuple[list[int], float, float]:
+    """The depth camera's own OBSTACLE_DISTANCE (sensor.form sectors or both): sector_count bins
+    over the field of view, each the distance (cm) along the ray through the bin's centre to the
+    nearest obstacle surface, from the TRUE pose. Per bin: range + N(0, range_sigma^2), missed
+    with miss_probability; false alarms, Poisson(false_alarm_rate_hz / rate_hz) a frame, each in
+    a random bin at a range uniform over the view's area, kept if nearer. Bins past sector_count
+    are UINT16_MAX (unused). Returns (distances_cm (72), increment_deg, angle_offset_deg), the
+    offset at bin 0's centre as ArduPilot reads it.
+    """
+    count = cfg.sector_count
+    increment = cfg.fov_rad / count
+    max_cm = int(round(cfg.max_range_m * 100))
+    none_cm = min(max_cm + 1, UINT16_MAX - 1)
+    dist = [none_cm] * count + [UINT16_MAX] * (SECTOR_COUNT - count)
+    first = -cfg.fov_rad / 2.0 + increment / 2.0
+    for i in range(count):
+        heading = yaw_rad + first + i * increment
+        ux, uy = math.cos(heading), math.sin(heading)
+        nearest = math.inf
+        for _, on, oe, radius in obstacles:
+            dn, de = on - north_m, oe - east_m
+            along = dn * ux + de * uy
+            miss_sq = dn * dn + de * de - along * along
+            if along <= 0.0 or miss_sq > radius * radius:
+                continue
+            nearest = min(nearest, along - math.sqrt(radius * radius - miss_sq))
+        if nearest > cfg.max_range_m:
+            continue
+        if cfg.miss_probability > 0.0 and rng.random() < cfg.miss_probability:
+            continue
+        noisy = nearest + rng.normal(0.0, cfg.range_sigma_m) if cfg.range_sigma_m > 0 else nearest
+        dist[i] = int(round(max(MIN_DISTANCE_M, noisy) * 100))
+    if cfg.false_alarm_rate_hz > 0.0:
+        for _ in range(int(rng.poisson(cfg.false_alarm_rate_hz / cfg.rate_hz))):
+            i = int(rng.integers(count))
+            r_cm = int(round(max(MIN_DISTANCE_M, cfg.max_range_m * math.sqrt(rng.random())) * 100))
+            dist[i] = min(dist[i], r_cm)
+    return dist, math.degrees(increment), math.degrees(first)

@@ -32,12 +32,17 @@ class CameraComponent:
             out.append((tm.COMP_CAMERA, tm.heartbeat_camera()))
             self._next_heartbeat_s = _advance(self._next_heartbeat_s, HEARTBEAT_INTERVAL_S, t_s)
         if t_s + 1e-9 >= self._next_frame_s:
-            detections = self.sim.observe()
+            form = self.cfg.form
+            detections = self.sim.observe() if form != "sectors" else []
             self.frames += 1
             self.last_frame = detections
             for det in detections:
                 out.append((tm.COMP_CAMERA, tm.obstacle_distance_3d(det, t_s, self.cfg)))
-            if self.cfg.sector_message or not detections:
+            if form in ("sectors", "both"):
+                # a depth camera: its own ray-cast sectors every frame (sensor.form)
+                out.append((tm.COMP_CAMERA, tm.obstacle_distance(
+                    [], t_s, self.cfg, self.sim.scan_sectors())))
+            elif self.cfg.sector_message or not detections:
                 # Nothing seen is still a frame: an OBSTACLE_DISTANCE with every sector at
                 # max_distance + 1, as depth cameras send it, so the receiver knows the camera
                 # is live (its heartbeat alone says nothing about its data).

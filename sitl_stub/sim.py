@@ -137,6 +137,12 @@ class Simulation:
         """[(id, north_m, east_m, radius_m)] at the current simulated time."""
         return obstacles_at(self.scenario.world.obstacles, self.t_s)
 
+    def scan_sectors(self) -> tuple[list[int], float, float]:
+        """One depth frame captured now, from the true pose (camera.ray_cast_sectors_cm)."""
+        return camera.ray_cast_sectors_cm(self.truth.north_m, self.truth.east_m,
+                                          self.truth.yaw_rad, self.obstacles_now(),
+                                          self.scenario.sensor, self._rng_camera)
+
     def observe(self) -> list[camera.Detection]:
         """One camera frame captured now, from the true pose."""
         return camera.observe(self.truth.north_m, self.truth.east_m, self.truth.yaw_rad,

@@ -269,8 +269,10 @@ def obstacle_distance_3d(det: camera.Detection, t_s: float,
 
 
 def obstacle_distance(detections: list[camera.Detection], t_s: float,
-                      cfg: SensorConfig) -> mavlink.MAVLink_message:
-    distances, increment_deg, offset_deg = camera.sector_distances_cm(detections, cfg)
+                      cfg: SensorConfig, scan: tuple | None = None) -> mavlink.MAVLink_message:
+    """The sectors of ``detections`` (form centres), or a depth camera's own ray-cast ``scan``
+    (camera.ray_cast_sectors_cm) when given."""
+    distances, increment_deg, offset_deg = scan or camera.sector_distances_cm(detections, cfg)
     return mavlink.MAVLink_obstacle_distance_message(
         int(t_s * 1e6), mavlink.MAV_DISTANCE_SENSOR_UNKNOWN, distances, 0,
         int(camera.MIN_DISTANCE_M * 100), min(int(round(cfg.max_range_m * 100)), UINT16_MAX - 1),

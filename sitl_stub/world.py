@@ -129,6 +129,11 @@ class SensorConfig:
     miss_probability: float
     false_alarm_rate_hz: float
     sector_message: bool = False
+    form: str = "centres"          # centres | sectors (depth camera: ray-cast sectors only) | both
+    sector_count: int = 72         # bins over the field of view (one OBSTACLE_DISTANCE holds 72)
+
+
+SENSOR_FORMS = ("centres", "sectors", "both")
 
 
 @dataclass(frozen=True)
@@ -339,9 +344,19 @@ def _parse_sensor(r: _Reader) -> SensorConfig:
         report_ids=r.boolean("report_ids"),
         miss_probability=r.number("miss_probability", 0.0, minimum=0, maximum=1),
         false_alarm_rate_hz=r.number("false_alarm_rate_hz", 0.0, minimum=0),
-        sector_message=r.boolean("sector_message", False))
+        sector_message=r.boolean("sector_message", False),
+        form=_form(r),
+        sector_count=r.integer("sector_count", minimum=2, maximum=72)
+        if "sector_count" in r.data else 72)
     r.finish()
     return cfg
+
+
+def _form(r: _Reader) -> str:
+    value = r._get("form", "centres")
+    if value not in SENSOR_FORMS:
+        raise r.error(f"expected one of {', '.join(SENSOR_FORMS)}, got {_show(value)}", "form")
+    return value
 
 
 def wrap_pi(angle_rad: float) -> float:

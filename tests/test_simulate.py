@@ -8,7 +8,7 @@ from companion.__main__ import main
 RUN_FIELDS = {"seed", "reached_goal", "time_s", "min_clearance_m", "collided", "final_goal_distance_m",
               "final_position_error_m", "max_position_error_m", "landmark_errors_m", "urgent_events",
               "path_length_m", "arrived", "arrival_uncertain_t_s", "final_pose_2sigma_m",
-              "estimator_state_s", "estimator_state_changes", "position_fixes"}
+              "estimator_state_s", "estimator_state_changes", "position_fixes", "landmarks"}
 
 
 def simulate(tmp_path, *args):
@@ -34,6 +34,9 @@ def test_paper_scenario_meets_the_acceptance_figures(tmp_path, strategy):
     for run in report["runs"]:
         assert set(run) == RUN_FIELDS
         assert len(run["landmark_errors_m"]) == 2 and max(run["landmark_errors_m"]) < 2.0
+        # the paper's two posts, each confirmed, nothing deleted or left over (a perfect camera)
+        assert run["landmarks"]["final"] == run["landmarks"]["final_confirmed"] == 2
+        assert run["landmarks"]["deleted"] == run["landmarks"]["expired"] == 0
         assert 155.0 <= run["path_length_m"] < 175.0          # the straight line is 160 m
     png = (tmp_path / "fig.png").read_bytes()
     assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 20_000

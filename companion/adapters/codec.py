@@ -145,6 +145,9 @@ class ObstacleFrame:
     t_s: float
     observations: tuple[Observation, ...]
     rejected: str | None = None      # why the message gave no observation (frame, NaN, range)
+    # OBSTACLE_DISTANCE: every element as (ranges_m with NaN where nothing, bearings_rad,
+    # increment_rad), for core/blobs.py; None for other messages
+    sectors: tuple | None = None
 
 
 @dataclass(frozen=True)
@@ -302,11 +305,15 @@ def _obstacle_sectors(msg, sysid: int, compid: int) -> ObstacleFrame:
         return ObstacleFrame(sysid, compid, t_s, (), "min_distance above max_distance")
     bearings = sector_bearings_rad(msg.increment, msg.increment_f, msg.angle_offset,
                                    len(msg.distances))
-    observations = tuple(
-        Observation(cm / 100.0, math.atan2(math.sin(b), math.cos(b)), None)
-        for cm, b in zip(msg.distances, bearings)
-        if cm != NO_OBSTACLE_ID and msg.min_distance <= cm <= msg.max_distance)
-    return ObstacleFrame(sysid, compid, t_s, observations)
+    valid = [cm != NO_OBSTACLE_ID and msg.min_distance <= cm <= msg.max_distance
+             for cm in msg.distances]
+    wrapped = tuple(math.atan2(math.sin(b), math.cos(b)) for b in bearings)
+    observations = tuple(Observation(cm / 100.0, b, None)
+                         for cm, b, ok in zip(msg.distances, wrapped, valid) if ok)
+    step_deg = msg.increment_f if msg.increment_f > 0.0 else float(msg.increment)
+    sectors = (tuple(cm / 100.0 if ok else math.nan for cm, ok in zip(msg.distances, valid)),
+               wrapped, math.radians(step_deg))
+    return ObstacleFrame(sysid, compid, t_s, observations, sectors=sectors)
 
 
 def _command_ack(msg, sysid: int, compid: int) -> CommandAck:

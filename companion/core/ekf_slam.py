@@ -97,10 +97,18 @@ class AssociationGates:
 
 @dataclass(frozen=True)
 class Observation:
-    """One range-bearing observation of an obstacle centre, bearing from the heading, right positive."""
+    """One range-bearing observation of an obstacle centre, bearing from the heading, right positive.
+
+    ``meas_cov``: this observation's own R, ((var_r, cov), (cov, var_b)) in m^2, m rad, rad^2
+    (a landmark made from a depth camera's sectors knows its spread); None: the filter's R.
+    """
     range_m: float
     bearing_rad: float
     obstacle_id: int | None = None
+    meas_cov: tuple | None = None
+
+    def meas_cov_array(self) -> np.ndarray | None:
+        return None if self.meas_cov is None else np.asarray(self.meas_cov, dtype=float)
 
 
 @dataclass(frozen=True)
@@ -316,11 +324,12 @@ class EkfSlam:
         while a new landmark is on probation: if it turns out to move, it never touched the pose.
         """
         z = np.array([obs.range_m, obs.bearing_rad])
+        r = obs.meas_cov_array()
         if obs.obstacle_id is not None:
             index = self._id_to_index.get(obs.obstacle_id)
             if index is None:
-                return self._add(z, obs.obstacle_id)
-            parts = self._innovation(z, index)
+                return self._add(z, obs.obstacle_id, r)
+            parts = self._innovation(z, index, r)
             innovation, s = parts[1], parts[2]
             nis = float(innovation @ np.linalg.solve(s, innovation))
             if nis > self.gates.outlier_nis:
@@ -328,21 +337,28 @@ class EkfSlam:
             return self._correct(parts, index, obs.obstacle_id,
                                  landmark_only or nis > self.gates.pose_nis)
         if self.landmark_count == 0:
-            return self._add(z, None)
-        nis_all, _ = self.nis_all(z)
+            return self._add(z, None, r)
+        nis_all, _ = self.nis_all(z, r)
         if exclude:
             nis_all[list(exclude)] = np.inf
         best = int(np.argmin(nis_all))
         best_nis = float(nis_all[best])
         if best_nis <= self.gates.accept_nis:
-            return self._correct(self._innovation(z, best), best, None, landmark_only)
+            return self._correct(self._innovation(z, best, r), best, None, landmark_only)
         if best_nis > self.gates.new_landmark_nis:
-            return self._add(z, None)
+            return self._add(z, None, r)
         return UpdateReport("ambiguous", best, None, best_nis, None)
 
-    def update_landmark(self, z: np.ndarray, index: int, landmark_only: bool = False) -> UpdateReport:
+    def add_landmark(self, z: np.ndarray, obstacle_id: int | None = None,
+                     meas_cov: np.ndarray | None = None) -> UpdateReport:
+        """Start a landmark from measurement z (2,) the caller has judged new (R: ``meas_cov``
+        (2,2), None: the filter's)."""
+        return self._add(np.asarray(z, dtype=float), obstacle_id, meas_cov)
+
+    def update_landmark(self, z: np.ndarray, index: int, landmark_only: bool = False,
+                        meas_cov: np.ndarray | None = None) -> UpdateReport:
         """Update with measurement z (2,) of a landmark the caller has already associated."""
-        return self._correct(self._innovation(z, index), index, self._index_to_id[index],
+        return self._correct(self._innovation(z, index, meas_cov), index, self._index_to_id[index],
                              landmark_only)
 
     def update_batch(self, observations: Sequence[Observation]) -> list[UpdateReport]:
@@ -447,8 +463,10 @@ class EkfSlam:
         self._index_to_id[index] = obstacle_id
         self._id_to_index[obstacle_id] = index
 
-    def nis_all(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """NIS of measurement z (2,) against every landmark, vectorised: ((n,), (n, 2) innovations)."""
+    def nis_all(self, z: np.ndarray, meas_cov: np.ndarray | None = None
+                ) -> tuple[np.ndarray, np.ndarray]:
+        """NIS of measurement z (2,) against every landmark, vectorised: ((n,), (n, 2) innovations).
+        R: ``meas_cov`` (2,2), None: the filter's."""
         n = self.landmark_count
         mean, cov = self.mean, self.cov
         lm = mean[POSE_DIM:].reshape(n, 2)
@@ -472,19 +490,53 @@ class EkfSlam:
         s = (jac_pose @ cov[:3, :3] @ jac_pose.transpose(0, 2, 1)
              + mixed + mixed.transpose(0, 2, 1)
              + jac_lm @ self.landmark_covs() @ jac_lm.transpose(0, 2, 1)
-             + self._meas_cov)
+             + (self._meas_cov if meas_cov is None else meas_cov))
         det = s[:, 0, 0] * s[:, 1, 1] - s[:, 0, 1] * s[:, 1, 0]
         nis = (s[:, 1, 1] * innovation[:, 0] ** 2
                - (s[:, 0, 1] + s[:, 1, 0]) * innovation[:, 0] * innovation[:, 1]
                + s[:, 0, 0] * innovation[:, 1] ** 2) / det
         return nis, innovation
 
+    def joint_nis(self, z: np.ndarray, indices: Sequence[int],
+                  meas_covs: np.ndarray | None = None) -> float:
+        """NIS of K observations z (K, 2) taken jointly as measurements of the distinct landmarks
+        ``indices`` (K,): the stacked innovation against the joint S (2K, 2K), which holds the
+        observations' correlation through the shared pose. Chi-square with 2K dof when every
+        pairing is right (joint compatibility, Neira and Tardos 2001)."""
+        indices = np.asarray(indices, dtype=int)
+        k_obs, n = len(indices), self._dim
+        if k_obs == 0:
+            return 0.0
+        mean = self._mean_buf
+        lm_cols = (POSE_DIM + LANDMARK_DIM * indices[:, None] + np.arange(2)).ravel()
+        d = mean[lm_cols].reshape(k_obs, 2) - mean[:2]
+        range_sq = np.einsum("ij,ij->i", d, d)
+        range_m = np.sqrt(range_sq)
+        innovation = np.empty((k_obs, 2))
+        innovation[:, 0] = z[:, 0] - range_m
+        innovation[:, 1] = wrap_angles(z[:, 1] - (np.arctan2(d[:, 1], d[:, 0]) - mean[2]))
+        rows = np.arange(k_obs)
+        lm = np.empty((k_obs, 2, 2))
+        lm[:, 0, 0], lm[:, 0, 1] = d[:, 0] / range_m, d[:, 1] / range_m
+        lm[:, 1, 0], lm[:, 1, 1] = -d[:, 1] / range_sq, d[:, 0] / range_sq
+        jac = np.zeros((k_obs, 2, POSE_DIM + 2 * k_obs))
+        jac[:, :, :2] = -lm
+        jac[:, 1, 2] = -1.0
+        jac[:, :, POSE_DIM:].reshape(k_obs, 2, k_obs, 2)[rows, :, rows, :] = lm
+        jac = jac.reshape(2 * k_obs, -1)
+        cols = np.concatenate((np.arange(POSE_DIM), lm_cols))
+        s = jac @ self._cov_buf[:n, :n][np.ix_(cols, cols)] @ jac.T
+        s4 = s.reshape(k_obs, 2, k_obs, 2)
+        s4[rows, :, rows, :] += self._meas_cov if meas_covs is None else meas_covs
+        v = innovation.ravel()
+        return float(v @ np.linalg.solve(s, v))
+
     def nis_against(self, z: np.ndarray, index: int) -> tuple[float, np.ndarray]:
         """NIS and innovation of z against one landmark."""
         _, innovation, s, _ = self._innovation(z, index)
         return float(innovation @ np.linalg.solve(s, innovation)), innovation
 
-    def _innovation(self, z: np.ndarray, index: int):
+    def _innovation(self, z: np.ndarray, index: int, meas_cov: np.ndarray | None = None):
         """Innovation (2,), S (2,2), P H^T (N,2) and the five state indices it involves."""
         mean = self._mean_buf
         s0 = POSE_DIM + LANDMARK_DIM * index
@@ -498,7 +550,7 @@ class EkfSlam:
                         [d_east / range_sq, -d_north / range_sq, -1.0, -d_east / range_sq, d_north / range_sq]])
         cols = np.array([0, 1, 2, s0, s0 + 1])
         p_ht = self.cov[:, cols] @ jac.T                          # (N, 2)
-        s = jac @ p_ht[cols] + self._meas_cov
+        s = jac @ p_ht[cols] + (self._meas_cov if meas_cov is None else meas_cov)
         return cols, innovation, s, p_ht
 
     def _correct(self, parts: tuple, index: int, obstacle_id: int | None,
@@ -551,7 +603,8 @@ class EkfSlam:
         cov[m, :] = rows
         cov[:, m] = rows.T
 
-    def _add(self, z: np.ndarray, obstacle_id: int | None) -> UpdateReport:
+    def _add(self, z: np.ndarray, obstacle_id: int | None,
+             meas_cov: np.ndarray | None = None) -> UpdateReport:
         """Initialise a landmark from one observation, with its full cross-covariance."""
         dim = self._dim
         self._grow(dim + LANDMARK_DIM)
@@ -561,7 +614,8 @@ class EkfSlam:
         jac_pose, jac_meas = place_jacobians(pose, z)
         cov = self._cov_buf
         cross = jac_pose @ cov[:3, :dim]                          # (2, N): cov(new, old state)
-        new_cov = jac_pose @ cov[:3, :3] @ jac_pose.T + jac_meas @ self._meas_cov @ jac_meas.T
+        new_cov = jac_pose @ cov[:3, :3] @ jac_pose.T + jac_meas @ (
+            self._meas_cov if meas_cov is None else meas_cov) @ jac_meas.T
         self._mean_buf[dim:dim + 2] = position
         cov[dim:dim + 2, :dim] = cross
         cov[:dim, dim:dim + 2] = cross.T

@@ -11,6 +11,7 @@ from dataclasses import dataclass, replace
 from companion.core.consistency import Consistency, MonitorParams, chi2_quantile
 from companion.core.ekf_slam import VelocityNoise, chi2_2dof_quantile
 from companion.core.guidance import GuidanceCommand
+from companion.core.lifecycle import LifecycleParams
 
 MOTION_MODELS = ("paper", "velocity_ned")
 REACTIONS = ("none", "slow", "hold")
@@ -26,7 +27,7 @@ class EstimatorOptions:
     Position fixes (``correct_position``) are fused at most once per ``position_period_s``.
     A landmark corrects the pose only once established: past probation and seen
     ``established_sightings`` times. Arrival needs the pose's 2-sigma radius within
-    ``arrival_tolerance_m``. Reactions to 'degraded' / 'lost': 'none', 'slow' (speed times
+    ``arrival_tolerance_m``. ``lifecycle``: tentative / confirmed / deleted (core/lifecycle.py). Reactions to 'degraded' / 'lost': 'none', 'slow' (speed times
     ``slow_factor``) or 'hold'.
     """
     motion_model: str = "paper"
@@ -41,6 +42,7 @@ class EstimatorOptions:
     degraded_reaction: str = "slow"
     lost_reaction: str = "hold"
     slow_factor: float = 0.5
+    lifecycle: LifecycleParams = LifecycleParams()
 
     def __post_init__(self) -> None:
         if self.motion_model not in MOTION_MODELS:

@@ -11,10 +11,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from companion.core.association import associate_frame
 from companion.core.consistency import Consistency, ConsistencyMonitor
 from companion.core.ekf_slam import AssociationGates, EkfSlam, Observation, SlamNoise, UpdateReport
 from companion.core.estimator_options import EstimatorOptions, moderate
 from companion.core.geometry import move, move_velocity, place, wrap_angle
+from companion.core.lifecycle import Lifecycle, expected_visible
 from companion.core.guidance import GuidanceCommand, GuidanceParams, guide_apf, guide_cone
 from companion.core.movers import MoverParams, MoverTracker, apparent_velocity, world_measurement
 from companion.core.union import UnionParams, guide_union
@@ -88,6 +90,11 @@ class Navigator:
         self._yaw_rad: float | None = None
         self._pending: deque[tuple[float, list[Observation]]] = deque()
         self.rejected: dict[str, int] = {}
+        self.lifecycle = Lifecycle(options.lifecycle)
+        self._frame_hits: set[int] = set()      # landmark keys detected in the current frame
+        self._frame_near: set[int] = set()      # ... come near by an ambiguous observation
+        self._frame_added: set[int] = set()
+        self._guidance_keys: list = []          # landmark key of each landmark row of obstacles()
 
     # ------------------------------------------------------ timed inputs
     # The live service and the replay feed messages through these two methods, stamped with the
@@ -282,27 +289,62 @@ class Navigator:
         """
         used: set[int] = set()
         reports = []
+        self._frame_hits, self._frame_near, self._frame_added = set(), set(), set()
+        anonymous = [obs for obs in observations if obs.obstacle_id is None]
+        ids = self.slam.landmark_ids()
+        plans = {id(obs): (p.action, ids[p.index] if p.index is not None else None)
+                 for obs, p in zip(anonymous, associate_frame(
+                     self.slam, np.array([[o.range_m, o.bearing_rad] for o in anonymous]),
+                     meas_covs=[o.meas_cov_array() for o in anonymous]))}
         for obs in observations:
-            report = self._observe_one(obs, used)
+            report = self._observe_one(obs, used, plans.get(id(obs)))
             if report.action in ("updated", "added") and report.landmark_index is not None:
                 used.add(report.landmark_index)
             reports.append(report)
         reports.extend(self._judge_young())
+        reports.extend(self._judge_lifecycle())
         self.movers.prune(self.clock_s)
         return reports
 
-    def _observe_one(self, obs: Observation, used: set[int]) -> UpdateReport:
+    def _schmidt(self, key) -> bool:
+        """Whether a landmark's observations correct only itself: on probation for motion, or
+        tentative (a landmark not yet confirmed never corrects the pose)."""
+        return key in self._young or self.lifecycle.is_tentative(key)
+
+    def _born(self, key: int) -> None:
+        self._young[key] = _Young()
+        self.lifecycle.add(key, self.clock_s)
+        self._frame_added.add(key)
+
+    def _judge_lifecycle(self) -> list[UpdateReport]:
+        """Count this frame's chance for every landmark; remove (marginalise) the deleted and
+        the expired ones."""
+        slam = self.slam
+        keys = slam.landmark_ids()
+        visible = expected_visible(slam.pose, slam.landmarks(), self.lifecycle.params)
+        verdict = self.lifecycle.judge(self.clock_s, keys, visible, self._frame_hits,
+                                       self._frame_near, self._frame_added)
+        reports = []
+        for action, removed in (("deleted", verdict.deleted), ("expired", verdict.expired)):
+            for key in removed:
+                slam.remove_landmark(slam.landmark_ids().index(key))
+                self._young.pop(key, None)
+                self._strikes.pop(key, None)
+                reports.append(UpdateReport(action, None, None, None, key))
+        return reports
+
+    def _observe_one(self, obs: Observation, used: set[int], plan=None) -> UpdateReport:
         slam, oid = self.slam, obs.obstacle_id
         if oid is None:
-            return self._observe_anonymous(obs, used)
+            return self._observe_anonymous(obs, used, plan)
         if oid in self.movers.by_obstacle_id:
             return self._update_mover(self.movers.by_obstacle_id[oid], obs)
-        young = oid in self._young
+        young = self._schmidt(oid)
         report = slam.update(obs, exclude=used, landmark_only=young)
         if not young and report.action in ("updated", "outlier"):
             self.monitor.add(self.clock_s, report.nis, 2)
         if report.action == "added":
-            self._young[oid] = _Young()
+            self._born(oid)
         self._note_young(oid, obs, report.action)
         if report.action != "outlier":
             self._strikes.pop(oid, None)
@@ -315,24 +357,24 @@ class Navigator:
         self._demote(oid, obs, used)
         return UpdateReport("mover_detected", None, report.innovation, report.nis, oid)
 
-    def _observe_anonymous(self, obs: Observation, used: set[int]) -> UpdateReport:
-        """An observation without an id: the static map's gate first, then a young landmark that
-        may have moved (a gate as wide as a mover's top speed allows), then the mover tracks,
-        then a new landmark. Id-less landmarks get internal negative ids (never published)."""
+    def _observe_anonymous(self, obs: Observation, used: set[int], plan=None) -> UpdateReport:
+        """An observation without an id: the frame's joint association first (``plan``, from
+        core/association.py: (action, landmark key)), then a young landmark that may have moved
+        (a gate as wide as a mover's top speed allows), then the mover tracks, then a new
+        landmark unless it was ambiguous. Id-less landmarks get internal negative ids (never
+        published)."""
         slam = self.slam
         z = np.array([obs.range_m, obs.bearing_rad])
-        if slam.landmark_count:
-            nis = slam.nis_all(z)[0]
-            if used:
-                nis[list(used)] = np.inf
-            best = int(np.argmin(nis))
-            if nis[best] <= slam.gates.accept_nis:
-                key = slam.landmark_ids()[best]
-                report = slam.update_landmark(z, best, landmark_only=key in self._young)
-                if key not in self._young:
-                    self.monitor.add(self.clock_s, report.nis, 2)
-                self._note_young(key, obs, report.action)
-                return report
+        action, key = plan if plan is not None else ("new", None)
+        ids = slam.landmark_ids()
+        if action == "update" and key in ids:
+            index = ids.index(key)
+            report = slam.update_landmark(z, index, landmark_only=self._schmidt(key),
+                                          meas_cov=obs.meas_cov_array())
+            if not self._schmidt(key):
+                self.monitor.add(self.clock_s, report.nis, 2)
+            self._note_young(key, obs, report.action)
+            return report
         key = self._moved_young(place(self._dr_pose, z))
         if key is not None:
             self._note_young(key, obs, "moved")
@@ -342,16 +384,22 @@ class Navigator:
             track = self.movers.nearest(self.clock_s, point, cov)
             if track is not None:
                 return self._update_mover(track, obs)
-        report = slam.update(obs, exclude=used)
+        if action == "ambiguous" and key in ids:
+            self._frame_near.add(key)
+            return UpdateReport("ambiguous", ids.index(key), None, None, None)
+        report = slam.add_landmark(z, None, obs.meas_cov_array()) if action == "new" \
+            else slam.update(obs, exclude=used)
         if report.action == "added":
             key = self._next_anonymous_id
             self._next_anonymous_id -= 1
             slam.set_landmark_id(report.landmark_index, key)
-            self._young[key] = _Young()
+            self._born(key)
             self._note_young(key, obs, "added")
         return report
 
     def _note_young(self, key: int, obs: Observation, action: str) -> None:
+        if action in ("updated", "added", "outlier", "moved"):
+            self._frame_hits.add(key)
         young = self._young.get(key)
         if young is not None and action in ("updated", "added", "outlier", "moved"):
             young.times.append(self.clock_s)
@@ -361,7 +409,9 @@ class Navigator:
             # The multicopter's dead-reckoned yaw is the autopilot's, noisy per sample.
             yaw_sigma = self.options.yaw_sigma_rad \
                 if self.options.motion_model == "velocity_ned" else 0.0
-            young.sigmas.append(math.hypot(self._point_sigma_m, obs.range_m * self._turn_rate_rad_s
+            point_sigma = self._point_sigma_m if obs.meas_cov is None else math.sqrt(
+                obs.meas_cov[0][0] + obs.range_m ** 2 * obs.meas_cov[1][1])
+            young.sigmas.append(math.hypot(point_sigma, obs.range_m * self._turn_rate_rad_s
                                            * self._frame_timing_s, obs.range_m * yaw_sigma))
             young.last_obs = obs
 
@@ -379,6 +429,7 @@ class Navigator:
         """Marginalise landmark ``oid`` out of the map and start a mover track at ``obs``."""
         self._strikes.pop(oid, None)
         self._young.pop(oid, None)
+        self.lifecycle.forget(oid)
         index = self.slam.landmark_ids().index(oid)
         self.slam.remove_landmark(index)
         if used is not None:
@@ -431,7 +482,8 @@ class Navigator:
     def _world_point(self, obs: Observation) -> tuple[np.ndarray, np.ndarray]:
         return world_measurement(self.slam.pose, self.slam.pose_cov,
                                  np.array([obs.range_m, obs.bearing_rad]),
-                                 self.slam.noise.measurement_cov())
+                                 obs.meas_cov_array() if obs.meas_cov is not None
+                                 else self.slam.noise.measurement_cov())
 
     def _update_mover(self, track_id: int, obs: Observation) -> UpdateReport:
         point, cov = self._world_point(obs)
@@ -446,6 +498,12 @@ class Navigator:
         landmarks = slam.landmarks()
         inflate = self.params.inflation_sigmas > 0
         rel_covs = slam.relative_covs() if inflate else None
+        keys = slam.landmark_ids()
+        if not self.lifecycle.params.tentative_in_guidance:
+            keep = [i for i, key in enumerate(keys) if not self.lifecycle.is_tentative(key)]
+            landmarks, keys = landmarks[keep], [keys[i] for i in keep]
+            rel_covs = rel_covs[keep] if rel_covs is not None else None
+        self._guidance_keys = keys
         movers = self.movers.states(self.clock_s)
         if not movers:
             return landmarks, None, rel_covs, movers
@@ -471,10 +529,10 @@ class Navigator:
         """A stable name for obstacle row ``index``: landmark ids shift as movers leave the map."""
         if index is None:
             return None
-        landmarks = self.slam.landmark_count
+        landmarks = len(self._guidance_keys)
         if index >= landmarks:
             return ("mover", movers[index - landmarks].track_id)
-        oid = self.slam.landmark_ids()[index]
+        oid = self._guidance_keys[index]
         return ("landmark", oid if oid is not None else index)
 
     def decide(self, t_s: float) -> tuple[GuidanceCommand, UrgencyChange | None]:

@@ -1,0 +1,134 @@
+"""A depth camera's sectors (nearest surface per bin) as landmark observations.
+
+Neighbouring bins that hold a surface, with no jump in range larger than ``max_jump_m`` between
+them, form a blob. A blob narrower than ``compact_width_m`` is one obstacle: its centre lies
+behind the nearest surface by the radius its angular width implies (a circle of radius R seen from
+r_s + R subtends 2 asin(R / (r_s + R)), so R = r_s sin(a) / (1 - sin(a)) for half width a). A
+wider blob is a wall, a fence, a building's face: a chain of surface points no further apart than
+``chain_spacing_m`` (under the safety distance, so the cones overlap and the wall blocks).
+
+R comes from the bin geometry. Each edge of a blob lies somewhere inside its edge bin (uniform:
+increment^2 / 12 each), so a compact blob's centre bearing has variance increment^2 / 24 and its
+radius the matching spread; a chain point stands for ``chain_spacing_m`` of surface either side,
+an isotropic spread of spacing^2 / 12. The sensor's own per-bin noise adds to both. The
+quantisation error is not white: from nearly the same viewpoint the same bins are hit frame
+after frame, so the filter would count one error many times. ``correlation_inflation``
+multiplies the geometric variances (a choice, 4: sigma doubled; measured on dense sector
+worlds, NEES in band on 80% of steps uninflated).
+Bearings are bin centres, right positive, from the heading.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from companion.core.ekf_slam import Observation
+
+
+@dataclass(frozen=True)
+class BlobParams:
+    range_sigma_m: float = 0.1            # the sensor's noise per bin
+    bearing_sigma_rad: float = 0.0
+    max_jump_m: float = 2.0               # a larger range step between neighbours splits a blob
+    compact_width_m: float = 6.0          # the widest post (3 m radius in the random worlds)
+    chain_spacing_m: float = 4.0          # a choice: under half the 10 m safety distance
+    correlation_inflation: float = 4.0
+
+    def __post_init__(self) -> None:
+        if self.chain_spacing_m <= 0 or self.compact_width_m <= 0 or self.max_jump_m <= 0:
+            raise ValueError("blob parameters must be > 0")
+
+
+@dataclass(frozen=True)
+class Blob:
+    """Bins ``first`` to ``last`` inclusive."""
+    first: int
+    last: int
+
+    @property
+    def bins(self) -> int:
+        return self.last - self.first + 1
+
+
+def sector_centres_rad(count: int, fov_rad: float) -> np.ndarray:
+    """Bearings of ``count`` bins across the field of view, each at its centre, (count,)."""
+    increment = fov_rad / count
+    return -0.5 * fov_rad + increment * (np.arange(count) + 0.5)
+
+
+def group_bins(ranges_m: np.ndarray, max_jump_m: float) -> list[Blob]:
+    """Blobs of neighbouring valid (finite) bins without a range jump above ``max_jump_m``."""
+    blobs, start = [], None
+    for i, r in enumerate(ranges_m.tolist()):
+        if not math.isfinite(r):
+            if start is not None:
+                blobs.append(Blob(start, i - 1))
+                start = None
+            continue
+        if start is not None and abs(r - ranges_m[i - 1]) > max_jump_m:
+            blobs.append(Blob(start, i - 1))
+            start = None
+        if start is None:
+            start = i
+    if start is not None:
+        blobs.append(Blob(start, len(ranges_m) - 1))
+    return blobs
+
+
+def blob_observations(ranges_m: np.ndarray, bearings_rad: np.ndarray, increment_rad: float,
+                      params: BlobParams) -> list[Observation]:
+    """Id-less observations, each with its own R, for one frame of sectors: ranges (n,) in metres
+    (NaN where nothing was seen) at bin-centre bearings (n,)."""
+    out: list[Observation] = []
+    for blob in group_bins(ranges_m, params.max_jump_m):
+        span = slice(blob.first, blob.last + 1)
+        rng, brg = ranges_m[span], bearings_rad[span]
+        surface = float(rng.min())
+        half = 0.5 * blob.bins * increment_rad
+        if 2.0 * surface * math.sin(half) <= params.compact_width_m and half < 0.5 * math.pi:
+            out.append(_compact(surface, float(0.5 * (brg[0] + brg[-1])), half, blob.bins,
+                                increment_rad, params))
+        else:
+            out.extend(_chain(rng, brg, increment_rad, params))
+    return out
+
+
+def _compact(surface_m: float, bearing_rad: float, half_rad: float, bins: int,
+             increment_rad: float, params: BlobParams) -> Observation:
+    sin_a = math.sin(half_rad)
+    radius = surface_m * sin_a / (1.0 - sin_a)
+    d_radius = surface_m * math.cos(half_rad) / (1.0 - sin_a) ** 2     # dR / da
+    edge_var = params.correlation_inflation * increment_rad ** 2 / 24.0   # var of a = width / 2 too
+    var_r = params.range_sigma_m ** 2 + d_radius ** 2 * edge_var
+    var_b = edge_var + params.bearing_sigma_rad ** 2 / bins
+    return Observation(surface_m + radius, bearing_rad, None, ((var_r, 0.0), (0.0, var_b)))
+
+
+def _chain(ranges_m: np.ndarray, bearings_rad: np.ndarray, increment_rad: float,
+           params: BlobParams) -> list[Observation]:
+    points = np.column_stack((ranges_m * np.cos(bearings_rad), ranges_m * np.sin(bearings_rad)))
+    picked = [0]
+    for i in range(1, len(points)):
+        if np.hypot(*(points[i] - points[picked[-1]])) >= params.chain_spacing_m:
+            picked.append(i)
+    if picked[-1] != len(points) - 1:
+        picked.append(len(points) - 1)         # the blob's end: where the wall stops
+    spread = params.correlation_inflation * params.chain_spacing_m ** 2 / 12.0
+    out = []
+    for i in picked:
+        r = float(ranges_m[i])
+        var_r = params.range_sigma_m ** 2 + spread
+        var_b = (params.bearing_sigma_rad ** 2 + spread / (r * r)
+                 + params.correlation_inflation * increment_rad ** 2 / 12.0)
+        out.append(Observation(r, float(bearings_rad[i]), None, ((var_r, 0.0), (0.0, var_b))))
+    return out
+
+
+def sector_observations(sectors: tuple, params: BlobParams = BlobParams()) -> list[Observation]:
+    """``blob_observations`` of a decoded OBSTACLE_DISTANCE: (ranges_m with NaN where nothing,
+    bin-centre bearings_rad, increment_rad), as codec.ObstacleFrame.sectors holds it."""
+    ranges_m, bearings_rad, increment_rad = sectors
+    return blob_observations(np.asarray(ranges_m, dtype=float), np.asarray(bearings_rad, dtype=float),
+                             float(increment_rad), params)
