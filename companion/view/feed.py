@@ -49,22 +49,27 @@ class PathCursor:
     """Which rows of the pipeline's track the feed has already carried."""
 
     def __init__(self) -> None:
-        self.last_t_s: float | None = None
+        self.last_t_s: float | None = None       # the newest row seen
+        self.kept_t_s: float | None = None       # the newest row sent (the step counts from it)
 
     def take(self, track) -> list[list[float]]:
         """New rows (t_s, north_m, east_m, ...) of ``track``, one per PATH_STEP_S, oldest first."""
+        if track and self.last_t_s is not None and track[-1][0] < self.last_t_s - 1.0:
+            self.last_t_s = self.kept_t_s = None  # the vehicle's clock restarted (a reboot)
         fresh = []
         for row in reversed(track):            # newest first: stop at what was sent
             if self.last_t_s is not None and row[0] <= self.last_t_s:
                 break
+            if fresh and row[0] > fresh[-1][0]:
+                break                          # rows from before the clock restarted
             fresh.append(row)
             if len(fresh) >= MAX_PATH_POINTS * 50:
                 break
-        points, kept_t = [], self.last_t_s
+        points = []
         for row in reversed(fresh):
-            if kept_t is None or row[0] - kept_t >= PATH_STEP_S - 1e-6:
+            if self.kept_t_s is None or row[0] - self.kept_t_s >= PATH_STEP_S - 1e-6:
                 points.append([round(row[1], 2), round(row[2], 2)])
-                kept_t = row[0]
+                self.kept_t_s = row[0]
         if fresh:
             self.last_t_s = fresh[0][0]
         return points[-MAX_PATH_POINTS:]
