@@ -21,7 +21,7 @@ COUNTS = """(() => { const m = document.getElementById('map');
           vehicle: m.querySelectorAll('.vehicle').length,
           estimator: document.getElementById('estimator').textContent,
           link: document.getElementById('link').textContent,
-          seq: window.companionView.state && window.companionView.state.seq}; })()"""
+          seq: Number(m.dataset.seq)}; })()"""
 
 
 def when_seq(seq: int) -> str:

@@ -221,6 +221,7 @@ function render() {
   map.dataset.movers = s ? s.movers.length : 0;
   map.dataset.trueObstacles = view.trueObstacles.length;
   map.dataset.updates = view.updates;
+  map.dataset.seq = s ? s.seq : "";           // the datagram this drawing shows
   $("rotate").textContent = P.orientation === "up" ? "north \u2191" : "north \u2192";
   panel(s);
 }
