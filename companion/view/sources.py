@@ -15,7 +15,7 @@ from companion.view.model import ViewModel
 
 log = logging.getLogger(__name__)
 
-TRUTH_POLL_S = 0.2
+TRUTH_POLL_S = 0.1
 REPLAY_FEED_PERIOD_S = 1.0 / feed.FEED_RATE_HZ
 
 

@@ -53,6 +53,20 @@ class Page:
         path.write_bytes(base64.b64decode(data))
 
 
+async def _page_socket(http: aiohttp.ClientSession, profile: Path) -> str:
+    """The DevTools WebSocket of Chromium's first page, once it has one."""
+    port_file = profile / "DevToolsActivePort"
+    while not port_file.exists() or len(port_file.read_text().split()) < 2:
+        await asyncio.sleep(0.05)
+    port = int(port_file.read_text().split()[0])
+    while True:
+        async with http.get(f"http://127.0.0.1:{port}/json/list") as r:
+            pages = [t for t in await r.json() if t["type"] == "page"]
+        if pages:
+            return pages[0]["webSocketDebuggerUrl"]
+        await asyncio.sleep(0.05)
+
+
 @asynccontextmanager
 async def open_page(url: str, width: int = 1280, height: int = 720):
     """Chromium on ``url`` at width x height CSS pixels; yields a Page; kills it afterwards."""
@@ -61,24 +75,14 @@ async def open_page(url: str, width: int = 1280, height: int = 720):
                              f"--window-size={width},{height}", url],
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:
-        async with asyncio.timeout(START_TIMEOUT_S):
-            port_file = profile / "DevToolsActivePort"
-            while not port_file.exists() or len(port_file.read_text().split()) < 2:
-                await asyncio.sleep(0.05)
-            port = int(port_file.read_text().split()[0])
-            async with aiohttp.ClientSession() as http:
-                while True:
-                    async with http.get(f"http://127.0.0.1:{port}/json/list") as r:
-                        pages = [t for t in await r.json() if t["type"] == "page"]
-                    if pages:
-                        break
-                    await asyncio.sleep(0.05)
-                async with http.ws_connect(pages[0]["webSocketDebuggerUrl"],
-                                           max_msg_size=0) as ws:
-                    page = Page(ws)
-                    await page.call("Emulation.setDeviceMetricsOverride", width=width,
-                                    height=height, deviceScaleFactor=1, mobile=width < 600)
-                    yield page
+        async with aiohttp.ClientSession() as http:
+            async with asyncio.timeout(START_TIMEOUT_S):       # the start only
+                ws_url = await _page_socket(http, profile)
+            async with http.ws_connect(ws_url, max_msg_size=0) as ws:
+                page = Page(ws)
+                await page.call("Emulation.setDeviceMetricsOverride", width=width,
+                                height=height, deviceScaleFactor=1, mobile=width < 600)
+                yield page
     finally:
         proc.kill()
         proc.wait()
