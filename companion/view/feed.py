@@ -169,7 +169,7 @@ def encode(state: dict) -> bytes:
 def decode(data: bytes) -> dict:
     """A datagram -> its state; ValueError for anything that is not a feed datagram."""
     try:
-        state = json.loads(data)
+        state = json.loads(data, parse_constant=_refuse_constant)
     except (UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise ValueError(f"not JSON: {exc}") from None
     if not isinstance(state, dict) or state.get("feed") != FEED_VERSION:
@@ -179,6 +179,10 @@ def decode(data: bytes) -> dict:
         if not isinstance(state.get(key), kind):
             raise ValueError(f"{key}: expected a {kind.__name__}")
     return state
+
+
+def _refuse_constant(name: str):
+    raise ValueError(f"non-finite number {name}")
 
 
 class _Quiet(asyncio.DatagramProtocol):
@@ -201,6 +205,16 @@ async def publish(pipeline, address: tuple[str, int], rate_hz: float = FEED_RATE
         while True:
             await asyncio.sleep(1.0 / rate_hz)
             seq += 1
-            transport.sendto(encode(feed_state(pipeline, seq, cursor)))
+            try:
+                data = encode(feed_state(pipeline, seq, cursor))
+            except ValueError as exc:          # a non-finite value (a diverging estimate)
+                log.warning("view feed: datagram %d not sent: %s", seq, exc)
+                continue
+            except Exception:
+                # The view is for people watching; avoidance must not stop for it. Say so once,
+                # loudly, and stop feeding (the service goes on).
+                log.exception("view feed stopped by a fault in building its state")
+                return
+            transport.sendto(data)
     finally:
         transport.close()

@@ -78,6 +78,7 @@ def test_a_map_too_big_for_one_datagram_keeps_the_nearest_landmarks():
     (b"\xff\xfe", "not JSON"), (b"[1, 2]", "not a companion-view/1"),
     (json.dumps({"feed": "other/9"}).encode(), "not a companion-view/1"),
     (json.dumps({**big_state(1), "landmarks": {}}).encode(), "landmarks: expected a list"),
+    (json.dumps({**big_state(1), "t_s": math.inf}).encode(), "non-finite number Infinity"),
 ])
 def test_the_decoder_refuses_what_is_not_a_feed_datagram(data, problem):
     with pytest.raises(ValueError, match=problem):
@@ -124,3 +125,22 @@ def test_the_path_cursor_starts_over_when_the_vehicle_clock_restarts():
     cursor.take([(100.0 + 0.1 * i, float(i), 0.0) for i in range(5)])
     after_reboot = [(100.0 + 0.1 * i, float(i), 0.0) for i in range(5)] + [(0.5, 7.0, 7.0)]
     assert cursor.take(after_reboot) == [[7.0, 7.0]]
+
+
+def test_a_fault_in_the_feed_stops_the_feed_not_the_service(monkeypatch, caplog):
+    calls = []
+
+    def broken(pipeline, seq, cursor):
+        calls.append(seq)
+        if seq == 1:
+            return {**big_state(1), "t_s": math.nan}       # not JSON: skipped
+        raise KeyError("a bug")
+
+    monkeypatch.setattr(feed, "feed_state", broken)
+
+    async def scenario():
+        async with asyncio.timeout(5):
+            await feed.publish(idle_pipeline(), ("127.0.0.1", 9), 100.0)   # returns, no raise
+    asyncio.run(scenario())
+    assert calls == [1, 2]
+    assert "not sent" in caplog.text and "view feed stopped" in caplog.text
