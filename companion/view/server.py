@@ -52,16 +52,20 @@ async def stream(request: web.Request) -> web.StreamResponse:
     sent: dict = {}
     version, quiet_s = None, 0.0
     period_s = 1.0 / STREAM_RATE_HZ
-    while True:            # ends when the browser goes (the write raises, aiohttp cancels us)
-        if model.version != version:
-            version = model.version
-            await response.write(f"data: {_json(model.delta(sent))}\n\n".encode())
-            quiet_s = 0.0
-        elif quiet_s >= KEEPALIVE_S:
-            await response.write(b": keepalive\n\n")
-            quiet_s = 0.0
-        await asyncio.sleep(period_s)
-        quiet_s += period_s
+    try:
+        while True:
+            if model.version != version:
+                version = model.version
+                await response.write(f"data: {_json(model.delta(sent))}\n\n".encode())
+                quiet_s = 0.0
+            elif quiet_s >= KEEPALIVE_S:
+                await response.write(b": keepalive\n\n")
+                quiet_s = 0.0
+            await asyncio.sleep(period_s)
+            quiet_s += period_s
+    except ConnectionResetError:        # the browser went away: its stream ends here
+        log.debug("stream closed by %s", request.remote)
+    return response
 
 
 def make_app(model: ViewModel) -> web.Application:
