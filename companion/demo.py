@@ -354,12 +354,14 @@ def read_truth(path: Path, tail_only: bool = False) -> list[dict]:
 
 async def run_demo(scenario_path: Path, scenario: Scenario, files: DemoFiles, speedup: float,
                    seed: int, drop_rate: float, signing_key_file: Path | None = None,
-                   lockstep: bool = True) -> tuple[dict, dict, list[dict], list]:
+                   lockstep: bool = True,
+                   view_feed: str | None = None) -> tuple[dict, dict, list[dict], list]:
     """Fly the scenario; returns (the companion's report, its config, the truth records, the
     ground station's (wall s, vehicle s) samples).
     With ``signing_key_file``, the stub, the companion and the ground station all sign.
     ``lockstep``: stub and companion in lock-step (module docstring); else the stub free-runs at
-    ``speedup`` on the wall clock."""
+    ``speedup`` on the wall clock. ``view_feed``: HOST:PORT the companion sends its live state to
+    (``companion view``)."""
     config = demo_config(scenario, signing_key_file=signing_key_file)
     read_signing_key(config.link)             # a bad key file fails here, before any child
     files.config.write_text(yaml.safe_dump(config_to_dict(config)))
@@ -386,6 +388,8 @@ async def run_demo(scenario_path: Path, scenario: Scenario, files: DemoFiles, sp
             companion_args += ["--tlog", str(files.tlog)]
         if lockstep:
             companion_args += ["--lockstep"]
+        if view_feed:
+            companion_args += ["--view-feed", view_feed]
 
         async def start_companion() -> None:
             children.append(await spawn("companion", companion_args, files.workdir))

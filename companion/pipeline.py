@@ -147,6 +147,7 @@ class Pipeline:
         self.goal_ne: tuple[float, float] | None = (
             (goal.north_m, goal.east_m) if goal is not None and not goal.is_geographic else None)
         self._goal_reference: str | None = None
+        self.last_command = None        # (t_s, GuidanceCommand) of the latest decision: the view
 
     # ------------------------------------------------------------ entry point
     def handle(self, t_link_s: float, event: codec.Event | None) -> list[Output]:
@@ -206,6 +207,11 @@ class Pipeline:
                  self.goal.lon_deg, *self.goal_ne, "EKF origin" if ref.kind == "origin" else "HOME")
         if self.navigator is not None:
             self.navigator.goal = np.array(self.goal_ne)
+
+    @property
+    def safe_reason(self) -> str | None:
+        """Why the safe action is on now (None: guidance as planned)."""
+        return self._safe_reason
 
     @property
     def heartbeat_link_s(self) -> float | None:
@@ -505,6 +511,7 @@ class Pipeline:
             self._reset_estimate()
             return
         command, change = nav.decide(t_s)
+        self.last_command = (t_s, command)
         if change is not None:
             self._on_urgency(change, out)
         out.extend(self.estimator_notices.after_decision(nav, command))

@@ -50,8 +50,10 @@ class ReplayResult:
 
 
 def replay_tlog(path: str | Path, config: CompanionConfig,
-                progress: Callable[[int], None] | None = None) -> ReplayResult:
-    """Replay one tlog; never raises on a damaged file (see ``stats`` and ``notes``)."""
+                progress: Callable[[int], None] | None = None,
+                on_inbound: Callable[[int, Pipeline], None] | None = None) -> ReplayResult:
+    """Replay one tlog; never raises on a damaged file (see ``stats`` and ``notes``).
+    ``on_inbound(t_us, pipeline)`` after each inbound message (the live view's replay)."""
     reader = TlogReader(path, progress)
     pipeline = Pipeline(config, config.goal, record_track=True)
     result = ReplayResult(Path(path), reader.stats, pipeline, config)
@@ -78,6 +80,8 @@ def replay_tlog(path: str | Path, config: CompanionConfig,
             elif isinstance(output, codec.PoseEstimate):
                 result.replayed_poses[int(round(output.t_s * 1e6))] = (
                     codec.float32(output.north_m), codec.float32(output.east_m))
+        if on_inbound is not None:
+            on_inbound(record.t_us, pipeline)
     if len(result.recorded_keys) == len(result.replayed_keys) + 1 and result.last_us is not None:
         # the daemon's shutdown: SIGINT/SIGTERM while commanding sent one stop setpoint
         for output in pipeline.stop_setpoint(result.last_us / 1e6):

@@ -41,6 +41,7 @@ from companion.pipeline import Arrived, NavigatorStarted, Pipeline, StreamsWante
 from companion.report import _clean
 from companion.safety.notices import NoticeLimiter
 from companion.stream_rates import StreamRateWatch
+from companion.view import feed
 
 log = logging.getLogger(__name__)
 
@@ -81,13 +82,15 @@ class Service:
     """The live daemon around one Pipeline."""
 
     def __init__(self, config: CompanionConfig, link: MavlinkLink, tlog: TlogWriter | None,
-                 report_path: str | Path | None, clock: VehicleLinkClock | None = None) -> None:
+                 report_path: str | Path | None, clock: VehicleLinkClock | None = None,
+                 keep_track: bool = False) -> None:
         self.config = config
         self.clock = clock
         self.link = link
         self.tlog = tlog
         self.report_path = report_path
-        self.pipeline = Pipeline(config, config.goal, record_track=report_path is not None,
+        self.pipeline = Pipeline(config, config.goal,
+                                 record_track=report_path is not None or keep_track,
                                  track_limit=REPORT_TRACK_ROWS)
         self.streams_wanted = asyncio.Event()
         self.acks: asyncio.Queue[codec.CommandAck] = asyncio.Queue(maxsize=16)
@@ -291,8 +294,10 @@ class Service:
 
 
 async def run_service(config: CompanionConfig, url: str, tlog_path: str | Path | None = None,
-                      report_path: str | Path | None = None, lockstep: bool = False) -> None:
-    """Run the daemon until SIGINT/SIGTERM. ``config.goal`` must be set."""
+                      report_path: str | Path | None = None, lockstep: bool = False,
+                      view_feed: tuple[str, int] | None = None) -> None:
+    """Run the daemon until SIGINT/SIGTERM. ``config.goal`` must be set. ``view_feed``:
+    (host, port) to send the live view's state to (companion/view/feed.py)."""
     loop = asyncio.get_running_loop()
     clock = None
     if lockstep:
@@ -311,7 +316,7 @@ async def run_service(config: CompanionConfig, url: str, tlog_path: str | Path |
     try:
         async with open_link(url, encoder, config.link.inbox_size,
                              config.link.reconnect_interval_s, signing_key) as link:
-            service = Service(config, link, tlog, report_path, clock)
+            service = Service(config, link, tlog, report_path, clock, view_feed is not None)
             for sig in (signal.SIGINT, signal.SIGTERM):
                 loop.add_signal_handler(sig, service.stop.set)
             log.info("companion up on %s%s: goal %s", url,
@@ -332,6 +337,8 @@ async def run_service(config: CompanionConfig, url: str, tlog_path: str | Path |
                         tg.create_task(service.ask_geo_reference(), name="geo-reference")
                     if tlog is not None:
                         tg.create_task(service.flush_tlog(), name="tlog")
+                    if view_feed is not None:
+                        tg.create_task(feed.publish(service.pipeline, view_feed), name="view-feed")
                     tg.create_task(service.raise_on_stop(), name="stop")
             except* ShutdownRequested:
                 log.info("clean shutdown: %s", link.statistics())

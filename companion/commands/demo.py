@@ -45,6 +45,9 @@ def add_parser(sub) -> None:
     p.add_argument("--tlog", metavar="PATH", help="the companion records its traffic here")
     p.add_argument("--keep", metavar="DIR", help="keep the work files (truth log, report, "
                    "children's stderr) in DIR instead of a temporary directory")
+    p.add_argument("--view-feed", metavar="HOST:PORT",
+                   help="the companion sends its live state to `companion view` there; with "
+                        "--keep DIR the view can draw the truth too (DIR/truth.jsonl)")
     add_autopilot_arguments(p)
     p.set_defaults(handler=run)
 
@@ -57,6 +60,9 @@ def run(args: argparse.Namespace) -> int:
         raise CompanionError(f"--drop-rate: expected a fraction in [0, 1), got {args.drop_rate}")
     scenario_path = resolve_config(args.scenario)
     scenario = load_scenario(scenario_path)
+    if args.view_feed:
+        from companion.view.feed import parse_address
+        parse_address(args.view_feed, "--view-feed")
     if args.autopilot:
         return run_autopilot(args, scenario_path, scenario)
     tlog = Path(args.tlog).resolve() if args.tlog else None
@@ -68,7 +74,8 @@ def run(args: argparse.Namespace) -> int:
         try:
             report, _, truth, samples = asyncio.run(run_demo(
                 scenario_path, scenario, files, args.speedup, args.seed, args.drop_rate,
-                Path(args.signing_key).resolve() if args.signing_key else None, args.lockstep))
+                Path(args.signing_key).resolve() if args.signing_key else None, args.lockstep,
+                args.view_feed))
         except BaseExceptionGroup as group:
             match, rest = group.split(CompanionError)
             if match is None or rest is not None:

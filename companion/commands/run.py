@@ -38,6 +38,9 @@ def add_parser(sub) -> None:
     p.add_argument("--lockstep", action="store_true",
                    help="against `sitl-stub --lockstep`: one ODOMETRY per odometry sample, and "
                         "the vehicle's clock for heartbeats, timeouts and the tlog")
+    p.add_argument("--view-feed", metavar="HOST:PORT",
+                   help="send the live state to `companion view --source udp:HOST:PORT` "
+                        "(UDP, 10 Hz; nothing waits for the view)")
     p.set_defaults(handler=run)
 
 
@@ -86,10 +89,12 @@ def effective_config(args: argparse.Namespace) -> CompanionConfig:
 
 def run(args: argparse.Namespace) -> int:
     from companion.service import run_service
+    from companion.view.feed import parse_address
     config = effective_config(args)
+    view_feed = parse_address(args.view_feed, "--view-feed") if args.view_feed else None
     try:
         asyncio.run(run_service(config, args.connect, args.tlog, args.report,
-                                lockstep=args.lockstep))
+                                lockstep=args.lockstep, view_feed=view_feed))
     except BaseExceptionGroup as group:
         # A CompanionError raised inside the task tree (e.g. the link) is theirs: say it plainly.
         # Anything else is our bug and keeps its traceback.
