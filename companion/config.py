@@ -622,6 +622,25 @@ class FlightConfig:
 
 
 @dataclass(frozen=True)
+class MapOutputConfig:
+    """The map published as OBSTACLE_DISTANCE (72 sectors, body FRD) for ArduPilot's proximity
+    library (PRX1_TYPE = 2) and the ground station's proximity view. rate_hz 0: not published.
+    AP_Proximity_MAV calls the sensor lost 500 ms after the last message: keep rate_hz above 2."""
+    rate_hz: float = 5.0                      # vehicle time
+    obstacle_radius_m: float = 2.0            # a mapped obstacle's centre +- this is its surface
+    min_distance_m: float = 0.2
+    max_distance_m: float = 100.0             # surfaces beyond: "nothing there"
+
+    def __post_init__(self) -> None:
+        require(self.rate_hz >= 0.0, "rate_hz", self.rate_hz, "a rate >= 0 (0: off)")
+        require(self.obstacle_radius_m >= 0.0, "obstacle_radius_m", self.obstacle_radius_m,
+                "a radius >= 0")
+        _positive("min_distance_m", self.min_distance_m)
+        require(self.min_distance_m < self.max_distance_m <= 655.0, "max_distance_m",
+                self.max_distance_m, "a distance above min_distance_m and <= 655 m (uint16 cm)")
+
+
+@dataclass(frozen=True)
 class CompanionConfig:
     estimator: EstimatorConfig
     avoidance: AvoidanceConfig
@@ -632,6 +651,7 @@ class CompanionConfig:
     safety: SafetyConfig = field(default_factory=SafetyConfig)
     goal: GoalConfig | None = None            # or --goal NORTH,EAST on the command line
     flight: FlightConfig = field(default_factory=FlightConfig)
+    map_out: MapOutputConfig = field(default_factory=MapOutputConfig)
 
     def guidance_params(self, goal_radius_m: float) -> GuidanceParams:
         return self.avoidance.guidance_params(self.commanding.cruise_speed_mps, goal_radius_m)

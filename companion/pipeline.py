@@ -46,6 +46,7 @@ from companion.safety.gate import SetpointGate, SetpointLimits
 from companion.safety.liveness import Liveness
 from companion.flight_phase import FlightPhase, VerticalHold
 from companion.goal import goal_north_east
+from companion.map_output import MapPublisher
 
 log = logging.getLogger(__name__)
 
@@ -74,7 +75,7 @@ class Arrived:
 
 
 Output = codec.VelocitySetpoint | codec.PoseEstimate | codec.Notice | codec.MoverReport \
-    | StreamsWanted \
+    | codec.SectorMap | StreamsWanted \
     | NavigatorStarted | Arrived
 
 
@@ -146,6 +147,7 @@ class Pipeline:
         self.goal_ne: tuple[float, float] | None = (
             (goal.north_m, goal.east_m) if goal is not None and not goal.is_geographic else None)
         self._goal_reference: str | None = None
+        self.map_out = MapPublisher(config.map_out)
 
     # ------------------------------------------------------------ entry point
     def handle(self, t_link_s: float, event: codec.Event | None) -> list[Output]:
@@ -401,6 +403,10 @@ class Pipeline:
         # do for this sample has been sent (companion/lockstep.py). A diverged estimator is
         # restarted by the decision (navigator None until the next good sample): nothing to say.
         if self.navigator is not None:
+            scan = self.map_out.scan(lpn.t_s, self.navigator.slam.pose,
+                                     self.navigator.slam.landmarks())
+            if scan is not None:
+                out.append(scan)
             self._maybe_publish_pose(lpn.t_s, out)
 
     def _make_navigator(self, north_m: float, east_m: float, yaw_rad: float) -> Navigator:

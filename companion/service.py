@@ -147,6 +147,8 @@ class Service:
             self._send_notice(output)
         elif isinstance(output, codec.MoverReport):
             link.send(codec.mover_obstacle(output))
+        elif isinstance(output, codec.SectorMap):
+            link.send(codec.obstacle_distance_map(output))
         elif isinstance(output, StreamsWanted):
             log.info("asking for telemetry streams: %s", output.reason)
             self.streams_wanted.set()
