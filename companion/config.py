@@ -567,9 +567,16 @@ class GoalConfig:
     radius_m: float = 2.0
     lat_deg: float | None = None
     lon_deg: float | None = None
+    mission: bool = False                     # fly the autopilot's mission (companion/mission.py)
 
     def __post_init__(self) -> None:
         _positive("radius_m", self.radius_m)
+        if self.mission:
+            given = [k for k in ("north_m", "east_m", "lat_deg", "lon_deg")
+                     if getattr(self, k) is not None]
+            if given:
+                raise FieldError(given[0], "not with mission: true (the mission gives the goals)")
+            return
         local = (self.north_m, self.east_m)
         geo = (self.lat_deg, self.lon_deg)
         if any(v is not None for v in local) and any(v is not None for v in geo):
@@ -588,7 +595,7 @@ class GoalConfig:
 
     @property
     def is_geographic(self) -> bool:
-        return self.lat_deg is not None or self.lon_deg is not None
+        return not self.mission and (self.lat_deg is not None or self.lon_deg is not None)
 
 
 @dataclass(frozen=True)

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 os.environ.setdefault("MAVLINK20", "1")
 from pymavlink.dialects.v20 import ardupilotmega as mavlink  # noqa: E402
 
+from companion.adapters.mission_codec import DECODERS as _mission_decoders  # noqa: E402
 from companion.core.ekf_slam import Observation  # noqa: E402
 
 MAV_COMP_ID_AUTOPILOT1 = mavlink.MAV_COMP_ID_AUTOPILOT1
@@ -348,6 +349,7 @@ _DECODERS = {
     "COMMAND_ACK": _command_ack,
     "STATUSTEXT": _statustext,
 }
+_DECODERS.update(_mission_decoders)
 
 
 # ------------------------------------------------------------------ outbound intents
