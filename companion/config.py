@@ -648,6 +648,19 @@ class MapOutputConfig:
 
 
 @dataclass(frozen=True)
+class FlyToConfig:
+    """A ground station's "fly to here" in GUIDED becomes the goal (companion/fly_to.py)."""
+    enabled: bool = True
+    max_distance_from_origin_m: float = 1000.0   # goals beyond this from the EKF origin: refused
+    max_distance_from_vehicle_m: float = 500.0   # and beyond this from the vehicle
+    radius_m: float = 2.0                        # the new goal's radius
+
+    def __post_init__(self) -> None:
+        for key in ("max_distance_from_origin_m", "max_distance_from_vehicle_m", "radius_m"):
+            _positive(key, getattr(self, key))
+
+
+@dataclass(frozen=True)
 class CompanionConfig:
     estimator: EstimatorConfig
     avoidance: AvoidanceConfig
@@ -659,6 +672,7 @@ class CompanionConfig:
     goal: GoalConfig | None = None            # or --goal NORTH,EAST on the command line
     flight: FlightConfig = field(default_factory=FlightConfig)
     map_out: MapOutputConfig = field(default_factory=MapOutputConfig)
+    fly_to: FlyToConfig = field(default_factory=FlyToConfig)
 
     def guidance_params(self, goal_radius_m: float) -> GuidanceParams:
         return self.avoidance.guidance_params(self.commanding.cruise_speed_mps, goal_radius_m)

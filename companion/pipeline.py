@@ -49,6 +49,7 @@ from companion.goal import goal_north_east
 from companion.map_output import MapPublisher
 from companion.adapters import mission_codec
 from companion.mission_follow import MissionFollower
+from companion import fly_to
 
 log = logging.getLogger(__name__)
 
@@ -157,6 +158,8 @@ class Pipeline:
             if goal is not None and goal.mission else None
         self._goal_reference: str | None = None
         self.map_out = MapPublisher(config.map_out)
+        self.geo_reference: codec.GeoReference | None = None   # the EKF origin (or HOME)
+        self._fly_to_active = False
 
     # ------------------------------------------------------------ entry point
     def handle(self, t_link_s: float, event: codec.Event | None) -> list[Output]:
@@ -167,6 +170,8 @@ class Pipeline:
             return out
         if isinstance(event, codec.Heartbeat):
             self._on_heartbeat(t_link_s, event, out)
+        elif isinstance(event, mission_codec.GoalRequest):
+            self._on_goal_request(event, out)
         elif not self._from_vehicle_system(event):
             self._count("ignored_other_source")
         elif isinstance(event, codec.Attitude) and self._is_vehicle(event):
@@ -203,9 +208,47 @@ class Pipeline:
     @property
     def needs_geo_reference(self) -> bool:
         """A latitude/longitude goal (or mission waypoint) still waits for the EKF origin or HOME."""
+        if self.config.fly_to.enabled and (self.geo_reference is None
+                                           or self.geo_reference.kind != "origin"):
+            return True                   # a "fly to here" needs it too
         if self.mission is not None:
             return self.mission.needs_geo_reference
         return self.goal is not None and self.goal.is_geographic and self._goal_reference != "origin"
+
+    def _on_goal_request(self, request: mission_codec.GoalRequest, out: list[Output]) -> None:
+        """A ground station's "fly to here" (companion/fly_to.py): the new goal, or refused."""
+        if not self.config.fly_to.enabled or self.vehicle is None \
+                or request.component_id == self.config.link.component_id:
+            self._count("goal_request_ignored")
+            return
+        position = tuple(self.navigator.slam.pose[:2]) if self.navigator is not None else None
+        verdict = fly_to.judge(request, self.vehicle,
+                               self.custom_mode == self.config.link.guided_custom_mode,
+                               self.geo_reference, position, self.config.fly_to)
+        if verdict.reason == "not addressed to the vehicle":
+            self._count("goal_request_ignored")
+            return
+        if not verdict.accepted:
+            self._count("goal_refused")
+            log.warning("%s from %d/%d refused: %s", request.kind, request.system_id,
+                        request.component_id, verdict.reason)
+            out.append(codec.Notice(codec.SEVERITY_WARNING,
+                                    f"companion: goal refused: {verdict.reason}"))
+            return
+        self._fly_to_active = True
+        self._set_goal(verdict.north_m, verdict.east_m, self.config.fly_to.radius_m)
+        self.arrival_t_s = None
+        log.info("%s from %d/%d: new goal north %.1f m, east %.1f m", request.kind,
+                 request.system_id, request.component_id, verdict.north_m, verdict.east_m)
+        out.append(codec.Notice(codec.SEVERITY_INFO, f"companion: new goal N {verdict.north_m:.0f}"
+                                                     f" E {verdict.east_m:.0f} m"))
+
+    def _set_goal(self, north_m: float, east_m: float, radius_m: float) -> None:
+        self.goal_ne, self.goal_radius_m = (north_m, east_m), radius_m
+        if self.navigator is not None:
+            self.navigator.goal = np.array(self.goal_ne)
+            self.navigator.params = dataclasses.replace(self.navigator.params,
+                                                        goal_radius_m=radius_m)
 
     def mission_tick(self, t_link_s: float) -> list[Output]:
         """Mission download timeouts and retries (the service calls this on its timer)."""
@@ -218,21 +261,22 @@ class Pipeline:
     def _sync_mission_goal(self) -> None:
         """The mission's current waypoint is the navigator's goal."""
         goal = self.mission.goal()
-        if goal is None or (self.goal_ne, self.goal_radius_m) == (goal[:2], goal[2]):
-            return
-        self.goal_ne, self.goal_radius_m = goal[:2], goal[2]
+        if self._fly_to_active or goal is None \
+                or (self.goal_ne, self.goal_radius_m) == (goal[:2], goal[2]):
+            return                # a "fly to here" holds the goal until the next one
         log.info("goal: waypoint at north %.1f m, east %.1f m (radius %.1f m)", *goal)
-        if self.navigator is not None:
-            self.navigator.goal = np.array(self.goal_ne)
-            self.navigator.params = dataclasses.replace(self.navigator.params,
-                                                        goal_radius_m=self.goal_radius_m)
+        self._set_goal(*goal)
 
     def _on_geo_reference(self, ref: codec.GeoReference) -> None:
+        if self.geo_reference is None or ref.kind == "origin":
+            self.geo_reference = ref
         if self.mission is not None:
             self.mission.on_geo_reference(ref)
             self._sync_mission_goal()
             return
-        if not self.needs_geo_reference or (ref.kind == "home" and self._goal_reference):
+        goal_waits = self.goal is not None and self.goal.is_geographic \
+            and self._goal_reference != "origin" and not self._fly_to_active
+        if not goal_waits or (ref.kind == "home" and self._goal_reference):
             return                        # the EKF origin wins over HOME; one HOME is enough
         try:
             self.goal_ne = goal_north_east(self.goal.lat_deg, self.goal.lon_deg, ref.lat_deg,
@@ -552,7 +596,7 @@ class Pipeline:
         if change is not None:
             self._on_urgency(change, out)
         out.extend(self.estimator_notices.after_decision(nav, command))
-        if command.mode == "arrived" and self.mission is not None:
+        if command.mode == "arrived" and self.mission is not None and not self._fly_to_active:
             self._on_waypoint_arrived(t_link_s, t_s, out)
         elif command.mode == "arrived" and self.arrival_t_s is None:
             self.arrival_t_s = t_s

@@ -337,7 +337,7 @@ async def run_service(config: CompanionConfig, url: str, tlog_path: str | Path |
                     tg.create_task(service.send_heartbeats(), name="heartbeat")
                     tg.create_task(service.watch(), name="watchdog")
                     tg.create_task(service.request_streams(), name="streams")
-                    if config.goal.is_geographic or config.goal.mission:
+                    if config.goal.is_geographic or config.goal.mission or config.fly_to.enabled:
                         tg.create_task(service.ask_geo_reference(), name="geo-reference")
                     if tlog is not None:
                         tg.create_task(service.flush_tlog(), name="tlog")

@@ -21,6 +21,7 @@ os.environ.setdefault("MAVLINK20", "1")
 from pymavlink.dialects.v20 import ardupilotmega as mavlink  # noqa: E402
 
 from companion.adapters.mission_codec import DECODERS as _mission_decoders  # noqa: E402
+from companion.adapters.mission_codec import GOAL_DECODERS as _goal_decoders  # noqa: E402
 from companion.core.ekf_slam import Observation  # noqa: E402
 
 MAV_COMP_ID_AUTOPILOT1 = mavlink.MAV_COMP_ID_AUTOPILOT1
@@ -350,6 +351,7 @@ _DECODERS = {
     "STATUSTEXT": _statustext,
 }
 _DECODERS.update(_mission_decoders)
+_DECODERS.update(_goal_decoders)
 
 
 # ------------------------------------------------------------------ outbound intents

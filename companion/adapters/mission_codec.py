@@ -182,3 +182,58 @@ def encode(request: MissionRequest):
             request.target_system, request.target_component, request.seq, MISSION_TYPE_MISSION)
     return mavlink.MAVLink_mission_ack_message(
         request.target_system, request.target_component, request.result, MISSION_TYPE_MISSION)
+
+
+# ------------------------------------------------------------------ "fly to here"
+POSITION_IGNORED_BITS = 0x7         # POSITION_TARGET_TYPEMASK X, Y, Z ignore
+CMD_DO_REPOSITION = mavlink.MAV_CMD_DO_REPOSITION
+GOAL_FRAMES_INT = (mavlink.MAV_FRAME_GLOBAL_INT, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
+                   mavlink.MAV_FRAME_GLOBAL_TERRAIN_ALT_INT, *GLOBAL_FRAMES)
+
+
+@dataclass(frozen=True)
+class GoalRequest:
+    """A ground station's "fly to here" addressed to the vehicle: SET_POSITION_TARGET_GLOBAL_INT
+    with a position, or MAV_CMD_DO_REPOSITION (COMMAND_INT x/y in 1e-7 degrees; COMMAND_LONG
+    param5/6 in degrees). ``problem``: why it carries no usable position."""
+    system_id: int
+    component_id: int
+    target_system: int
+    target_component: int
+    kind: str                       # 'position_target' or 'reposition'
+    lat_deg: float
+    lon_deg: float
+    problem: str | None = None
+
+
+def _position_target_global(msg, sysid: int, compid: int) -> GoalRequest:
+    problem = None
+    if msg.type_mask & POSITION_IGNORED_BITS:
+        problem = "target has no position"
+    elif msg.coordinate_frame not in GOAL_FRAMES_INT:
+        problem = f"frame {msg.coordinate_frame} not global"
+    return GoalRequest(sysid, compid, int(msg.target_system), int(msg.target_component),
+                       "position_target", msg.lat_int / 1e7, msg.lon_int / 1e7, problem)
+
+
+def _command_int(msg, sysid: int, compid: int) -> GoalRequest | None:
+    if msg.command != CMD_DO_REPOSITION:
+        return None
+    problem = None if msg.frame in GOAL_FRAMES_INT else f"frame {msg.frame} not global"
+    return GoalRequest(sysid, compid, int(msg.target_system), int(msg.target_component),
+                       "reposition", msg.x / 1e7, msg.y / 1e7, problem)
+
+
+def _command_long(msg, sysid: int, compid: int) -> GoalRequest | None:
+    """param5/6 are float32 degrees: about 1 m of resolution (COMMAND_INT carries 1e-7 deg)."""
+    if msg.command != CMD_DO_REPOSITION:
+        return None
+    return GoalRequest(sysid, compid, int(msg.target_system), int(msg.target_component),
+                       "reposition", float(msg.param5), float(msg.param6))
+
+
+GOAL_DECODERS = {
+    "SET_POSITION_TARGET_GLOBAL_INT": _position_target_global,
+    "COMMAND_INT": _command_int,
+    "COMMAND_LONG": _command_long,
+}
