@@ -267,11 +267,13 @@ class Service:
         """A latitude/longitude goal needs the EKF origin (or HOME): ask until it is known.
         ArduCopter sets its origin once the EKF has a position (30-40 s after boot in SITL)."""
         while True:
-            await asyncio.sleep(GEO_REFERENCE_RETRY_S)
             if self.pipeline.vehicle is not None and self.pipeline.needs_geo_reference:
                 sysid, compid = self.pipeline.vehicle
                 for msg_id in (codec.MSG_ID_GPS_GLOBAL_ORIGIN, codec.MSG_ID_HOME_POSITION):
                     self.link.send(codec.request_message(sysid, compid, msg_id))
+                await asyncio.sleep(GEO_REFERENCE_RETRY_S)
+            else:        # ask as soon as the vehicle is found (a lock-step flight is quick)
+                await asyncio.sleep(WATCHDOG_INTERVAL_S)
 
     async def flush_tlog(self) -> None:
         while True:
