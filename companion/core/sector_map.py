@@ -25,13 +25,13 @@ class SectorScan:
     increment_rad: float
 
 
-def _surface_along(bearing_rad: np.ndarray, centre_range_m: float, centre_bearing_rad: float,
+def _surface_along(offset_rad: np.ndarray, centre_range_m: np.ndarray,
                    radius_m: float) -> np.ndarray:
-    """Distance along each ray (body bearings) to a disc's outline: the first crossing where the
-    ray meets the disc, else the range of the disc's point nearest the ray."""
-    offset = np.angle(np.exp(1j * (bearing_rad - centre_bearing_rad)))
-    along = centre_range_m * np.cos(offset)                # projection of the centre on the ray
-    across = centre_range_m * np.abs(np.sin(offset))       # miss distance of the ray
+    """Distance along each ray to each disc's outline, (n, sectors): the first crossing where the
+    ray meets the disc, else the range of the disc's point nearest the ray. ``offset_rad``
+    (n, sectors): ray bearing less the disc centre's bearing; ``centre_range_m`` (n, 1)."""
+    along = centre_range_m * np.cos(offset_rad)            # projection of the centre on the ray
+    across = centre_range_m * np.abs(np.sin(offset_rad))   # miss distance of the ray
     hit = (across <= radius_m) & (along > 0.0)
     first = along - np.sqrt(np.maximum(radius_m ** 2 - across ** 2, 0.0))
     nearest_outline = np.maximum(centre_range_m - radius_m, 0.0)
@@ -44,24 +44,26 @@ def scan_map(pose: np.ndarray, centres_ne_m: np.ndarray, radius_m: float,
 
     A disc touches a sector when its outline's angular span (asin(r / range) either side of its
     centre; all sectors when the vehicle is inside it) reaches the sector's centre ray or the
-    sector's half-width. Surfaces beyond ``max_range_m`` are left out (inf).
+    sector's half-width. Surfaces beyond ``max_range_m`` are left out (inf). O(n x sectors).
     """
     if radius_m < 0.0 or max_range_m <= 0.0:
         raise ValueError("radius_m must be >= 0 and max_range_m > 0")
     increment = 2.0 * math.pi / sectors
     rays = np.arange(sectors) * increment
-    distances = np.full(sectors, np.inf)
     centres = np.asarray(centres_ne_m, dtype=float).reshape(-1, 2)
-    for north_m, east_m in centres:
-        dn, de = north_m - pose[0], east_m - pose[1]
-        rng = math.hypot(dn, de)
-        if not math.isfinite(rng) or rng - radius_m > max_range_m:
-            continue
-        bearing = math.atan2(de, dn) - pose[2]
-        half_span = math.pi if rng <= radius_m else math.asin(radius_m / rng)
-        offset = np.abs(np.angle(np.exp(1j * (rays - bearing))))
-        touched = offset <= half_span + 0.5 * increment
-        surface = _surface_along(rays, rng, bearing, radius_m)
-        distances = np.where(touched, np.minimum(distances, surface), distances)
+    d_ne = centres - np.asarray(pose[:2], dtype=float)
+    rng = np.hypot(d_ne[:, 0], d_ne[:, 1])
+    keep = np.isfinite(rng) & (rng - radius_m <= max_range_m)
+    d_ne, rng = d_ne[keep], rng[keep]
+    if rng.size == 0:
+        return SectorScan(np.full(sectors, np.inf), increment)
+    bearing = np.arctan2(d_ne[:, 1], d_ne[:, 0]) - pose[2]
+    inside = rng <= radius_m
+    half_span = np.where(inside, math.pi,
+                         np.arcsin(np.minimum(radius_m / np.maximum(rng, 1e-12), 1.0)))
+    offset = np.angle(np.exp(1j * (rays[None, :] - bearing[:, None])))
+    touched = np.abs(offset) <= half_span[:, None] + 0.5 * increment
+    surface = np.where(touched, _surface_along(offset, rng[:, None], radius_m), np.inf)
+    distances = surface.min(axis=0)
     distances = np.where(distances <= max_range_m, distances, np.inf)
     return SectorScan(distances, increment)

@@ -89,3 +89,13 @@ def test_publisher_keeps_its_rate_and_never_sends_a_non_finite_map():
     assert len(sent) == 10                                 # 5 Hz of vehicle time over 2 s
     assert pub.scan(5.0, np.array([np.nan, 0.0, 0.0]), lm) is None
     assert MapPublisher(MapOutputConfig(rate_hz=0.0)).scan(0.0, np.zeros(3), lm) is None
+
+
+def test_the_scan_of_many_discs_is_the_nearest_of_each_alone():
+    rng = np.random.default_rng(4)
+    pose = np.array([3.0, -2.0, 0.7])
+    centres = rng.uniform(-60, 60, (40, 2))
+    together = scan_map(pose, centres, 1.5, 50.0).distances_m
+    alone = np.min([scan_map(pose, c[None, :], 1.5, 50.0).distances_m for c in centres], axis=0)
+    assert np.array_equal(together, alone)
+    assert np.isfinite(together).sum() > 20
