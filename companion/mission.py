@@ -131,17 +131,19 @@ def build_plan(items: list[mc.MissionItem], default_radius_m: float) -> MissionP
     for item in items:
         if item.seq == HOME_SEQ:
             continue                   # home, as ArduPilot stores it
-        name = mc.command_name(item.command)
+        # short for a STATUSTEXT ("companion: skip 4: DO_CHANGE_SPEED not flown"); the
+        # longest command names are cut at 50 characters by the codec
+        name = mc.command_name(item.command).removeprefix("MAV_CMD_")
         if item.command != mc.CMD_NAV_WAYPOINT:
-            skipped.append(f"{item.seq}: {name} not flown (only NAV_WAYPOINT)")
+            skipped.append(f"{item.seq}: {name} not flown")
             continue
         radius = item.params[1] if item.params[1] > 0.0 else default_radius_m
         if item.frame in mc.GLOBAL_FRAMES:
             if item.x == 0 and item.y == 0:
-                skipped.append(f"{item.seq}: {name} at 0, 0 ('here' to ArduPilot) not flown")
+                skipped.append(f"{item.seq}: {name} at 0, 0 not flown")
                 continue
             if not (-90.0 <= item.lat_deg <= 90.0 and -180.0 <= item.lon_deg <= 180.0):
-                skipped.append(f"{item.seq}: {name} latitude/longitude out of range")
+                skipped.append(f"{item.seq}: {name} lat/lon out of range")
                 continue
             waypoints.append(Waypoint(item.seq, radius, lat_deg=item.lat_deg,
                                       lon_deg=item.lon_deg))
@@ -149,5 +151,6 @@ def build_plan(items: list[mc.MissionItem], default_radius_m: float) -> MissionP
             waypoints.append(Waypoint(item.seq, radius, north_m=item.north_m,
                                       east_m=item.east_m))
         else:
-            skipped.append(f"{item.seq}: {name} in {mc.frame_name(item.frame)} not supported")
+            frame = mc.frame_name(item.frame).removeprefix("MAV_FRAME_")
+            skipped.append(f"{item.seq}: frame {frame} not flown")
     return MissionPlan(tuple(waypoints), tuple(skipped))

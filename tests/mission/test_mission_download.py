@@ -87,5 +87,7 @@ def test_the_plan_flies_waypoints_skips_home_and_names_the_rest():
     assert (plan.waypoints[1].north_m, plan.waypoints[1].east_m, plan.waypoints[1].radius_m) \
         == (40.0, -5.0, 2.0)
     assert len(plan.skipped) == 4
-    assert "MAV_CMD_NAV_TAKEOFF" in plan.skipped[0] and "DO_CHANGE_SPEED" in plan.skipped[1]
-    assert "0, 0" in plan.skipped[2] and "MAV_FRAME_BODY_FRD" in plan.skipped[3]
+    assert plan.skipped[0] == "1: NAV_TAKEOFF not flown"
+    assert plan.skipped[1] == "4: DO_CHANGE_SPEED not flown"
+    assert "0, 0" in plan.skipped[2] and plan.skipped[3] == "6: frame BODY_FRD not flown"
+    assert all(len(f"companion: skip {s}") <= 50 for s in plan.skipped)    # one STATUSTEXT each
