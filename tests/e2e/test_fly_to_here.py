@@ -31,7 +31,11 @@ FIRST_GOAL_NE_M = (300.0, 0.0)
 
 
 class UdpHub:
-    """Every datagram from a peer goes to the stub and to every other peer; the stub's to all."""
+    """Every datagram from a peer goes to the stub and to every other peer; the stub's to all.
+
+    ``inject(trigger, packets)``: once a message from the stub satisfies ``trigger``, the
+    packets go to the stub and every peer right after it, in the hub's own thread: the flight
+    is lock-step at ~100x real time, and a test that watched and reacted would arrive late."""
 
     def __init__(self, stub_port: int) -> None:
         self.front = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
@@ -40,9 +44,28 @@ class UdpHub:
         self.back.bind(("127.0.0.1", 0))
         self.stub = ("127.0.0.1", stub_port)
         self.peers: set[tuple] = set()
+        self._parser = mavutil.mavlink.MAVLink(None)
+        self._trigger = None
+        self._packets: list[bytes] = []
+        self.injected_after = None
         self._stop = False
         self._thread = threading.Thread(target=self._run, daemon=True)
         self._thread.start()
+
+    def inject(self, trigger, packets: list[bytes]) -> None:
+        self._packets, self._trigger = packets, trigger
+
+    def _maybe_inject(self, data: bytes) -> None:
+        if self._trigger is None:
+            return
+        for msg in self._parser.parse_buffer(data) or []:
+            if self._trigger(msg):
+                self._trigger, self.injected_after = None, msg
+                for packet in self._packets:
+                    self.back.sendto(packet, self.stub)
+                    for peer in list(self.peers):
+                        self.front.sendto(packet, peer)
+                return
 
     @property
     def port(self) -> int:
@@ -61,6 +84,8 @@ class UdpHub:
                     others = list(self.peers)
                 for peer in others:
                     self.front.sendto(data, peer)
+                if sock is self.back:
+                    self._maybe_inject(data)
 
     def close(self) -> None:
         self._stop = True
@@ -97,22 +122,23 @@ def test_fly_to_here_mid_flight_changes_the_goal_and_one_out_of_bounds_is_refuse
         shared = mavutil.mavlink_connection(f"udpout:127.0.0.1:{hub.port}", source_system=255,
                                             source_component=190)
         shared.mav.heartbeat_send(mavutil.mavlink.MAV_TYPE_GCS, 8, 0, 0, 4)
+        # the ground station's two requests, as it would send them on the shared link
+        encoder = mavutil.mavlink.MAVLink(None, srcSystem=255, srcComponent=190)
+        lat, lon = origin.to_lat_lon_deg(*FLY_TO_NE_M)
+        far_lat, far_lon = origin.to_lat_lon_deg(5000.0, 0.0)
+        frame = mavutil.mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
+        packets = [
+            encoder.set_position_target_global_int_encode(
+                0, 1, 1, frame, 0x0FF8, int(round(lat * 1e7)), int(round(lon * 1e7)), 10.0,
+                0, 0, 0, 0, 0, 0, 0, 0).pack(encoder),
+            encoder.command_int_encode(
+                1, 1, frame, mavutil.mavlink.MAV_CMD_DO_REPOSITION, 0, 0, -1, 0, 0, 0,
+                int(round(far_lat * 1e7)), int(round(far_lon * 1e7)), 10.0).pack(encoder)]
+        # mid-flight: 45 m north, past obstacle 1, on the way to (300, 0)
+        hub.inject(lambda m: m.get_type() == "LOCAL_POSITION_NED" and m.x > 45.0, packets)
         gcs = GroundStation(tcp_port)
         gcs.fly_from_the_ground()
-
-        def past_obstacle_one():                    # mid-flight: 45 m north, on the way to 300
-            msg = gcs.conn.recv_match(type="LOCAL_POSITION_NED", blocking=True, timeout=0.2)
-            return msg is not None and msg.x > 45.0
-        wait_until(past_obstacle_one, 60.0, "the vehicle 45 m north", poll_s=0.0)
-        lat, lon = origin.to_lat_lon_deg(*FLY_TO_NE_M)
-        shared.mav.set_position_target_global_int_send(
-            0, 1, 1, mavutil.mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, 0x0FF8,
-            int(round(lat * 1e7)), int(round(lon * 1e7)), 10.0, 0, 0, 0, 0, 0, 0, 0, 0)
-        far_lat, far_lon = origin.to_lat_lon_deg(5000.0, 0.0)
-        shared.mav.command_int_send(1, 1, mavutil.mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
-                                    mavutil.mavlink.MAV_CMD_DO_REPOSITION, 0, 0, -1, 0, 0, 0,
-                                    int(round(far_lat * 1e7)), int(round(far_lon * 1e7)), 10.0)
-        texts = statustexts(shared, ["new goal", "goal refused"], 20.0)
+        texts = statustexts(shared, ["new goal", "goal refused"], 60.0)
         wait_until(lambda: json.loads(report.read_text()).get("arrived"), 120.0,
                    "arrival at the new goal")
         gcs.close()
@@ -122,6 +148,7 @@ def test_fly_to_here_mid_flight_changes_the_goal_and_one_out_of_bounds_is_refuse
             if process.proc.poll() is None:
                 process.stop()
         hub.close()
+    assert hub.injected_after is not None and hub.injected_after.z < -5.0   # airborne
     assert "companion: new goal N 100 E 40 m" in texts, texts
     refused = [t for t in texts if "goal refused" in t]
     assert refused and "5000 m from origin > 1000" in refused[0], texts
