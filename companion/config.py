@@ -604,9 +604,16 @@ class GoalConfig:
     radius_m: float = 2.0
     lat_deg: float | None = None
     lon_deg: float | None = None
+    mission: bool = False                     # fly the autopilot's mission (companion/mission.py)
 
     def __post_init__(self) -> None:
         _positive("radius_m", self.radius_m)
+        if self.mission:
+            given = [k for k in ("north_m", "east_m", "lat_deg", "lon_deg")
+                     if getattr(self, k) is not None]
+            if given:
+                raise FieldError(given[0], "not with mission: true (the mission gives the goals)")
+            return
         local = (self.north_m, self.east_m)
         geo = (self.lat_deg, self.lon_deg)
         if any(v is not None for v in local) and any(v is not None for v in geo):
@@ -625,7 +632,7 @@ class GoalConfig:
 
     @property
     def is_geographic(self) -> bool:
-        return self.lat_deg is not None or self.lon_deg is not None
+        return not self.mission and (self.lat_deg is not None or self.lon_deg is not None)
 
 
 @dataclass(frozen=True)
@@ -659,6 +666,38 @@ class FlightConfig:
 
 
 @dataclass(frozen=True)
+class MapOutputConfig:
+    """The map published as OBSTACLE_DISTANCE (72 sectors, body FRD) for ArduPilot's proximity
+    library (PRX1_TYPE = 2) and the ground station's proximity view. rate_hz 0: not published.
+    AP_Proximity_MAV calls the sensor lost 500 ms after the last message: keep rate_hz above 2."""
+    rate_hz: float = 5.0                      # vehicle time
+    obstacle_radius_m: float = 2.0            # a mapped obstacle's centre +- this is its surface
+    min_distance_m: float = 0.2
+    max_distance_m: float = 100.0             # surfaces beyond: "nothing there"
+
+    def __post_init__(self) -> None:
+        require(self.rate_hz >= 0.0, "rate_hz", self.rate_hz, "a rate >= 0 (0: off)")
+        require(self.obstacle_radius_m >= 0.0, "obstacle_radius_m", self.obstacle_radius_m,
+                "a radius >= 0")
+        _positive("min_distance_m", self.min_distance_m)
+        require(self.min_distance_m < self.max_distance_m <= 655.0, "max_distance_m",
+                self.max_distance_m, "a distance above min_distance_m and <= 655 m (uint16 cm)")
+
+
+@dataclass(frozen=True)
+class FlyToConfig:
+    """A ground station's "fly to here" in GUIDED becomes the goal (companion/fly_to.py)."""
+    enabled: bool = True
+    max_distance_from_origin_m: float = 1000.0   # goals beyond this from the EKF origin: refused
+    max_distance_from_vehicle_m: float = 500.0   # and beyond this from the vehicle
+    radius_m: float = 2.0                        # the new goal's radius
+
+    def __post_init__(self) -> None:
+        for key in ("max_distance_from_origin_m", "max_distance_from_vehicle_m", "radius_m"):
+            _positive(key, getattr(self, key))
+
+
+@dataclass(frozen=True)
 class CompanionConfig:
     estimator: EstimatorConfig
     avoidance: AvoidanceConfig
@@ -669,6 +708,8 @@ class CompanionConfig:
     safety: SafetyConfig = field(default_factory=SafetyConfig)
     goal: GoalConfig | None = None            # or --goal NORTH,EAST on the command line
     flight: FlightConfig = field(default_factory=FlightConfig)
+    map_out: MapOutputConfig = field(default_factory=MapOutputConfig)
+    fly_to: FlyToConfig = field(default_factory=FlyToConfig)
 
     def guidance_params(self, goal_radius_m: float) -> GuidanceParams:
         return self.avoidance.guidance_params(self.commanding.cruise_speed_mps, goal_radius_m)

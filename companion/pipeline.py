@@ -47,6 +47,10 @@ from companion.safety.gate import SetpointGate, SetpointLimits
 from companion.safety.liveness import Liveness
 from companion.flight_phase import FlightPhase, VerticalHold
 from companion.goal import goal_north_east
+from companion.map_output import MapPublisher
+from companion.adapters import mission_codec
+from companion.mission_follow import MissionFollower
+from companion import fly_to
 
 log = logging.getLogger(__name__)
 
@@ -74,8 +78,11 @@ class Arrived:
     t_s: float
 
 
+MISSION_EVENTS = (mission_codec.MissionCount, mission_codec.MissionItem, mission_codec.MissionAck,
+                  mission_codec.MissionCurrent, mission_codec.MissionItemReached)
+
 Output = codec.VelocitySetpoint | codec.PoseEstimate | codec.Notice | codec.MoverReport \
-    | StreamsWanted \
+    | codec.SectorMap | mission_codec.MissionRequest | StreamsWanted \
     | NavigatorStarted | Arrived
 
 
@@ -145,9 +152,16 @@ class Pipeline:
         self.vertical = VerticalHold(config.flight.params())
         self._phase_said: str | None = None
         self.goal_ne: tuple[float, float] | None = (
-            (goal.north_m, goal.east_m) if goal is not None and not goal.is_geographic else None)
+            (goal.north_m, goal.east_m) if goal is not None and not goal.is_geographic
+            and not goal.mission else None)
+        self.goal_radius_m = goal.radius_m if goal is not None else 1.0
+        self.mission = MissionFollower(config.link.component_id, goal.radius_m) \
+            if goal is not None and goal.mission else None
         self._goal_reference: str | None = None
         self.last_command = None        # (t_s, GuidanceCommand) of the latest decision: the view
+        self.map_out = MapPublisher(config.map_out)
+        self.geo_reference: codec.GeoReference | None = None   # the EKF origin (or HOME)
+        self._fly_to_active = False
 
     # ------------------------------------------------------------ entry point
     def handle(self, t_link_s: float, event: codec.Event | None) -> list[Output]:
@@ -158,6 +172,8 @@ class Pipeline:
             return out
         if isinstance(event, codec.Heartbeat):
             self._on_heartbeat(t_link_s, event, out)
+        elif isinstance(event, mission_codec.GoalRequest):
+            self._on_goal_request(event, out)
         elif not self._from_vehicle_system(event):
             self._count("ignored_other_source")
         elif isinstance(event, codec.Attitude) and self._is_vehicle(event):
@@ -174,6 +190,10 @@ class Pipeline:
             self._on_obstacles(t_link_s, event, out)
         elif isinstance(event, (codec.GpsFix, codec.EkfStatus)) and self._is_vehicle(event):
             self.position_health.note(event, self.clock.latest_t_s)
+        elif isinstance(event, MISSION_EVENTS) and self._is_vehicle(event):
+            if self.mission is not None:
+                out.extend(self.mission.on_event(t_link_s, event))
+                self._sync_mission_goal()
         elif self._is_vehicle(event):
             self._on_flight_data(event)
         return out
@@ -189,11 +209,76 @@ class Pipeline:
 
     @property
     def needs_geo_reference(self) -> bool:
-        """A latitude/longitude goal still waits for the EKF origin or HOME."""
+        """A latitude/longitude goal (or mission waypoint) still waits for the EKF origin or HOME."""
+        if self.config.fly_to.enabled and (self.geo_reference is None
+                                           or self.geo_reference.kind != "origin"):
+            return True                   # a "fly to here" needs it too
+        if self.mission is not None:
+            return self.mission.needs_geo_reference
         return self.goal is not None and self.goal.is_geographic and self._goal_reference != "origin"
 
+    def _on_goal_request(self, request: mission_codec.GoalRequest, out: list[Output]) -> None:
+        """A ground station's "fly to here" (companion/fly_to.py): the new goal, or refused."""
+        if not self.config.fly_to.enabled or self.vehicle is None \
+                or request.component_id == self.config.link.component_id:
+            self._count("goal_request_ignored")
+            return
+        position = tuple(self.navigator.slam.pose[:2]) if self.navigator is not None else None
+        verdict = fly_to.judge(request, self.vehicle,
+                               self.custom_mode == self.config.link.guided_custom_mode,
+                               self.geo_reference, position, self.config.fly_to)
+        if verdict.reason == "not addressed to the vehicle":
+            self._count("goal_request_ignored")
+            return
+        if not verdict.accepted:
+            self._count("goal_refused")
+            log.warning("%s from %d/%d refused: %s", request.kind, request.system_id,
+                        request.component_id, verdict.reason)
+            out.append(codec.Notice(codec.SEVERITY_WARNING,
+                                    f"companion: goal refused: {verdict.reason}"))
+            return
+        self._fly_to_active = True
+        self._set_goal(verdict.north_m, verdict.east_m, self.config.fly_to.radius_m)
+        self.arrival_t_s = None
+        log.info("%s from %d/%d: new goal north %.1f m, east %.1f m", request.kind,
+                 request.system_id, request.component_id, verdict.north_m, verdict.east_m)
+        out.append(codec.Notice(codec.SEVERITY_INFO, f"companion: new goal N {verdict.north_m:.0f}"
+                                                     f" E {verdict.east_m:.0f} m"))
+
+    def _set_goal(self, north_m: float, east_m: float, radius_m: float) -> None:
+        self.goal_ne, self.goal_radius_m = (north_m, east_m), radius_m
+        if self.navigator is not None:
+            self.navigator.goal = np.array(self.goal_ne)
+            self.navigator.params = dataclasses.replace(self.navigator.params,
+                                                        goal_radius_m=radius_m)
+
+    def mission_tick(self, t_link_s: float) -> list[Output]:
+        """Mission download timeouts and retries (the service calls this on its timer)."""
+        if self.mission is None:
+            return []
+        out = self.mission.tick(t_link_s)
+        self._sync_mission_goal()
+        return out
+
+    def _sync_mission_goal(self) -> None:
+        """The mission's current waypoint is the navigator's goal."""
+        goal = self.mission.goal()
+        if self._fly_to_active or goal is None \
+                or (self.goal_ne, self.goal_radius_m) == (goal[:2], goal[2]):
+            return                # a "fly to here" holds the goal until the next one
+        log.info("goal: waypoint at north %.1f m, east %.1f m (radius %.1f m)", *goal)
+        self._set_goal(*goal)
+
     def _on_geo_reference(self, ref: codec.GeoReference) -> None:
-        if not self.needs_geo_reference or (ref.kind == "home" and self._goal_reference):
+        if self.geo_reference is None or ref.kind == "origin":
+            self.geo_reference = ref
+        if self.mission is not None:
+            self.mission.on_geo_reference(ref)
+            self._sync_mission_goal()
+            return
+        goal_waits = self.goal is not None and self.goal.is_geographic \
+            and self._goal_reference != "origin" and not self._fly_to_active
+        if not goal_waits or (ref.kind == "home" and self._goal_reference):
             return                        # the EKF origin wins over HOME; one HOME is enough
         try:
             self.goal_ne = goal_north_east(self.goal.lat_deg, self.goal.lon_deg, ref.lat_deg,
@@ -258,6 +343,8 @@ class Pipeline:
             self.vehicle = (hb.system_id, hb.component_id)
             log.info("vehicle found: system %d component %d", *self.vehicle)
             out.append(StreamsWanted("vehicle found"))
+            if self.mission is not None:
+                out.extend(self.mission.on_vehicle(t_link_s, self.vehicle))
         if self.vehicle is not None and (hb.system_id, hb.component_id) == self.vehicle:
             if self._link_lost:
                 self._link_lost = False
@@ -408,12 +495,16 @@ class Pipeline:
         # do for this sample has been sent (companion/lockstep.py). A diverged estimator is
         # restarted by the decision (navigator None until the next good sample): nothing to say.
         if self.navigator is not None:
+            scan = self.map_out.scan(lpn.t_s, self.navigator.slam.pose,
+                                     self.navigator.slam.landmarks())
+            if scan is not None:
+                out.append(scan)
             self._maybe_publish_pose(lpn.t_s, out)
 
     def _make_navigator(self, north_m: float, east_m: float, yaw_rad: float) -> Navigator:
         est = self.config.estimator
         goal_ne = self.goal_ne or (north_m, east_m)    # no goal yet: replaced once known
-        radius_m = self.goal.radius_m if self.goal is not None else 1.0   # no goal: no guidance
+        radius_m = self.goal_radius_m                   # no goal: no guidance
         pose_cov = np.diag([est.initial_position_sigma_m ** 2, est.initial_position_sigma_m ** 2,
                             math.radians(est.initial_yaw_sigma_deg) ** 2])
         return Navigator(np.array([north_m, east_m, wrap_angle(yaw_rad)]), pose_cov,
@@ -515,7 +606,9 @@ class Pipeline:
         if change is not None:
             self._on_urgency(change, out)
         out.extend(self.estimator_notices.after_decision(nav, command))
-        if command.mode == "arrived" and self.arrival_t_s is None:
+        if command.mode == "arrived" and self.mission is not None and not self._fly_to_active:
+            self._on_waypoint_arrived(t_link_s, t_s, out)
+        elif command.mode == "arrived" and self.arrival_t_s is None:
             self.arrival_t_s = t_s
             log.info("arrived at the goal at %.1f s", t_s)
             out.append(Arrived(t_s))
@@ -535,6 +628,18 @@ class Pipeline:
                 out.append(codec.Notice(codec.SEVERITY_INFO, "companion: guidance resumed"))
             self._safe_reason, self._safe_logged_commanding = None, False
         self._send(t_link_s, setpoint, out)
+
+    def _on_waypoint_arrived(self, t_link_s: float, t_s: float, out: list[Output]) -> None:
+        """Only while commanding (GUIDED, armed, airborne): a waypoint the pilot flew through in
+        another mode was not flown by us."""
+        if self.mission.complete or not (self.commanding_allowed(t_link_s)
+                                         and self.phase.decide(t_s).may_command):
+            return
+        out.extend(self.mission.on_arrived(t_s))
+        self._sync_mission_goal()
+        if self.mission.complete:
+            self.arrival_t_s = t_s
+            out.append(Arrived(t_s))
 
     def _setpoint(self, t_s: float, speed_mps: float, heading_rad: float,
                   mode: str) -> codec.VelocitySetpoint | None:
@@ -645,5 +750,6 @@ def snapshot(pipeline: Pipeline) -> dict:
         "urgency_events": [asdict(r) for r in pipeline.urgency],
         "counters": dict(pipeline.counters),
         "rejected_by_estimator": dict(nav.rejected) if nav is not None else {},
+        "mission": pipeline.mission.summary() if pipeline.mission is not None else None,
         **odometry_intake.snapshot(nav),
     }

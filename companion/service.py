@@ -31,7 +31,7 @@ from pathlib import Path
 
 import yaml
 
-from companion.adapters import codec
+from companion.adapters import codec, mission_codec
 from companion.adapters.mavlink_link import MavlinkLink, open_link
 from companion.adapters.tlog import TlogWriter
 from companion.config import CompanionConfig, config_to_dict, read_signing_key
@@ -61,6 +61,8 @@ GEO_REFERENCE_RETRY_S = 2.0      # a lat/lon goal: ask for GPS_GLOBAL_ORIGIN and
 
 
 def describe_goal(goal) -> str:
+    if goal.mission:
+        return f"the autopilot's mission (default acceptance radius {goal.radius_m:.1f} m)"
     if goal.is_geographic:
         return f"lat {goal.lat_deg:.7f}, lon {goal.lon_deg:.7f} (waits for the EKF origin)"
     return f"north {goal.north_m:.1f} m, east {goal.east_m:.1f} m"
@@ -150,6 +152,10 @@ class Service:
             self._send_notice(output)
         elif isinstance(output, codec.MoverReport):
             link.send(codec.mover_obstacle(output))
+        elif isinstance(output, codec.SectorMap):
+            link.send(codec.obstacle_distance_map(output))
+        elif isinstance(output, mission_codec.MissionRequest):
+            link.send(mission_codec.encode(output))
         elif isinstance(output, StreamsWanted):
             log.info("asking for telemetry streams: %s", output.reason)
             self.streams_wanted.set()
@@ -193,6 +199,9 @@ class Service:
         while True:
             await asyncio.sleep(WATCHDOG_INTERVAL_S)
             self._check_rates()
+            now_us = self.link.now_us() if self.clock is None else self.clock.now_us()
+            for output in self.pipeline.mission_tick(now_us / 1e6):
+                await self._dispatch(output)
             last = self.pipeline.heartbeat_link_s
             if last is None:
                 continue
@@ -261,11 +270,13 @@ class Service:
         """A latitude/longitude goal needs the EKF origin (or HOME): ask until it is known.
         ArduCopter sets its origin once the EKF has a position (30-40 s after boot in SITL)."""
         while True:
-            await asyncio.sleep(GEO_REFERENCE_RETRY_S)
             if self.pipeline.vehicle is not None and self.pipeline.needs_geo_reference:
                 sysid, compid = self.pipeline.vehicle
                 for msg_id in (codec.MSG_ID_GPS_GLOBAL_ORIGIN, codec.MSG_ID_HOME_POSITION):
                     self.link.send(codec.request_message(sysid, compid, msg_id))
+                await asyncio.sleep(GEO_REFERENCE_RETRY_S)
+            else:        # ask as soon as the vehicle is found (a lock-step flight is quick)
+                await asyncio.sleep(WATCHDOG_INTERVAL_S)
 
     async def flush_tlog(self) -> None:
         while True:
@@ -333,7 +344,7 @@ async def run_service(config: CompanionConfig, url: str, tlog_path: str | Path |
                     tg.create_task(service.send_heartbeats(), name="heartbeat")
                     tg.create_task(service.watch(), name="watchdog")
                     tg.create_task(service.request_streams(), name="streams")
-                    if config.goal.is_geographic:
+                    if config.goal.is_geographic or config.goal.mission or config.fly_to.enabled:
                         tg.create_task(service.ask_geo_reference(), name="geo-reference")
                     if tlog is not None:
                         tg.create_task(service.flush_tlog(), name="tlog")

@@ -13,6 +13,7 @@ import math
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from . import flight, guided, streams, telemetry as tm
+from .mission_store import MissionStore
 from .params import ParamTable
 from .sim import ClimbLimits, Simulation
 from .vehicle import GROUNDED, Demand
@@ -64,6 +65,11 @@ class Autopilot:
         self.hold_up_m = 0.0            # altitude held outside GUIDED (and by LOITER & co.)
         self.consumed_mah = 0.0
         self.on_signing_request = None  # set by the links: SETUP_SIGNING(key bytes, timestamp)
+        self.mission = MissionStore(self._home_lat_lon_alt)
+
+    def _home_lat_lon_alt(self) -> tuple[float, float, float]:
+        origin = self.sim.scenario.world.origin
+        return (*origin.to_lat_lon_deg(self.home[0], self.home[1]), origin.alt_m + self.home[2])
 
     # ----------------------------------------------------------------- physics interface
     def demand(self, t_s: float) -> Demand:
@@ -137,6 +143,7 @@ class Autopilot:
             msg = self._stream_message(msg_id, t_s, origin)
             if msg is not None:
                 out.append((tm.COMP_AUTOPILOT, msg))
+        out.extend((tm.COMP_AUTOPILOT, m) for m in self.mission.tick(t_s))
         return out
 
     def _stream_message(self, msg_id: int, t_s: float, origin):
@@ -175,6 +182,8 @@ class Autopilot:
                                           origin, self.home[2])
         if msg_id == streams.MSG_SIMSTATE:
             return tm.simstate(sim.truth, origin)
+        if msg_id == streams.MSG_MISSION_CURRENT:
+            return self.mission.mission_current()
         if msg_id == streams.MSG_HOME_POSITION:
             return tm.home_position(origin, *self.home, t_s)
         if msg_id == streams.MSG_POSITION_TARGET_LOCAL_NED:
@@ -244,9 +253,15 @@ class Autopilot:
                                            bool(msg.start_stop))
         return []
 
-    def _on_mission_request_list(self, msg, t_s: float) -> list[Outgoing]:
-        return [(tm.COMP_AUTOPILOT, tm.mission_count(msg.get_srcSystem(), msg.get_srcComponent(),
-                                                     getattr(msg, "mission_type", 0)))]
+    def _mission(self, msg, t_s: float) -> list[Outgoing]:
+        """The mission protocol (sitl_stub/mission_store.py), for the autopilot only."""
+        if self._addressed_to_camera(msg):
+            return []
+        return [(tm.COMP_AUTOPILOT, reply) for reply in self.mission.handle(msg, t_s)]
+
+    _on_mission_request_list = _on_mission_count = _on_mission_item_int = _on_mission_item = \
+        _on_mission_request_int = _on_mission_request = _on_mission_clear_all = \
+        _on_mission_set_current = _mission
 
     def _on_file_transfer_protocol(self, msg, t_s: float) -> list[Outgoing]:
         payload = bytes(msg.payload)

@@ -238,11 +238,6 @@ def message_interval(msg_id: int, interval_us: int) -> mavlink.MAVLink_message:
     return mavlink.MAVLink_message_interval_message(msg_id, interval_us)
 
 
-def mission_count(target_system: int, target_component: int,
-                  mission_type: int) -> mavlink.MAVLink_message:
-    return mavlink.MAVLink_mission_count_message(target_system, target_component, 0, mission_type)
-
-
 def ftp_nak(request_payload: list[int] | bytes, error_code: int, target_system: int,
             target_component: int) -> mavlink.MAVLink_message:
     """A MAVLink FTP NAK (opcode 129) answering a request, with a one-byte error code."""

@@ -20,6 +20,8 @@ from dataclasses import dataclass
 os.environ.setdefault("MAVLINK20", "1")
 from pymavlink.dialects.v20 import ardupilotmega as mavlink  # noqa: E402
 
+from companion.adapters.mission_codec import DECODERS as _mission_decoders  # noqa: E402
+from companion.adapters.mission_codec import GOAL_DECODERS as _goal_decoders  # noqa: E402
 from companion.core.ekf_slam import Observation  # noqa: E402
 
 MAV_COMP_ID_AUTOPILOT1 = mavlink.MAV_COMP_ID_AUTOPILOT1
@@ -355,6 +357,8 @@ _DECODERS = {
     "COMMAND_ACK": _command_ack,
     "STATUSTEXT": _statustext,
 }
+_DECODERS.update(_mission_decoders)
+_DECODERS.update(_goal_decoders)
 
 
 # ------------------------------------------------------------------ outbound intents
@@ -406,6 +410,36 @@ def mover_obstacle(report: MoverReport) -> mavlink.MAVLink_obstacle_distance_3d_
     return mavlink.MAVLink_obstacle_distance_3d_message(
         ms_of(report.t_s), mavlink.MAV_DISTANCE_SENSOR_UNKNOWN, mavlink.MAV_FRAME_LOCAL_NED,
         oid, report.north_m, report.east_m, 0.0, 0.0, 0.0)
+
+
+@dataclass(frozen=True)
+class SectorMap:
+    """The mapped obstacles as OBSTACLE_DISTANCE sectors (companion/core/sector_map.py): nearest
+    surface per sector in metres (inf: none within range), body FRD from the nose, clockwise."""
+    t_s: float
+    distances_m: tuple[float, ...]
+    increment_deg: float
+    min_distance_m: float
+    max_distance_m: float
+
+
+def obstacle_distance_map(scan: SectorMap) -> mavlink.MAVLink_obstacle_distance_message:
+    """OBSTACLE_DISTANCE in MAV_FRAME_BODY_FRD as AP_Proximity_MAV reads it: increment_f (and the
+    integer increment), angle_offset 0 (element 0 on the nose), centimetres within [min, max],
+    max + 1 for 'nothing there'; a surface nearer than min_distance is sent as min_distance (an
+    obstacle at the sensor's limit, not none). time_usec is the vehicle's time since boot."""
+    min_cm = max(1, int(math.ceil(scan.min_distance_m * 100.0)))
+    max_cm = min(65533, int(scan.max_distance_m * 100.0))
+    distances = []
+    for d_m in scan.distances_m:
+        if not math.isfinite(d_m) or d_m * 100.0 > max_cm:
+            distances.append(max_cm + 1)
+        else:
+            distances.append(min(max(int(d_m * 100.0), min_cm), max_cm))
+    return mavlink.MAVLink_obstacle_distance_message(
+        int(round(scan.t_s * 1e6)), mavlink.MAV_DISTANCE_SENSOR_UNKNOWN, distances,
+        int(round(scan.increment_deg)), min_cm, max_cm, float(scan.increment_deg), 0.0,
+        mavlink.MAV_FRAME_BODY_FRD)
 
 
 @dataclass(frozen=True)

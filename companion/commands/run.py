@@ -28,7 +28,8 @@ def add_parser(sub) -> None:
     p.add_argument("--config", default=DEFAULT_CONFIG, help=f"YAML settings (default {DEFAULT_CONFIG})")
     p.add_argument("--goal", metavar="NORTH,EAST[,RADIUS] | geo:LAT,LON[,RADIUS]",
                    help="goal in LOCAL_NED metres from the EKF origin, or as latitude,longitude in "
-                        "degrees after 'geo:' (converted with the vehicle's EKF origin); "
+                        "degrees after 'geo:' (converted with the vehicle's EKF origin), or 'mission' "
+                        "(fly the autopilot's mission, NAV_WAYPOINT items, in GUIDED); "
                         "overrides the config's goal")
     p.add_argument("--tlog", metavar="PATH",
                    help="record every message received and sent (PATH.config.yaml gets the config)")
@@ -48,7 +49,16 @@ GEO_PREFIX = "geo:"
 
 
 def parse_goal(text: str) -> GoalConfig:
-    """'NORTH,EAST[,RADIUS]' (metres) or 'geo:LAT,LON[,RADIUS]' (degrees, RFC 5870's form)."""
+    """'NORTH,EAST[,RADIUS]' (metres), 'geo:LAT,LON[,RADIUS]' (degrees, RFC 5870's form) or
+    'mission[:RADIUS]' (the autopilot's mission; RADIUS for waypoints without their own)."""
+    if text.strip().lower().split(":")[0] == "mission":
+        _, _, radius_text = text.strip().partition(":")
+        try:
+            radius_m = float(radius_text) if radius_text else 2.0
+            return GoalConfig(mission=True, radius_m=radius_m)
+        except (ValueError, FieldError):
+            raise ConfigError(f"--goal: expected mission or mission:RADIUS (metres > 0), "
+                              f"got {text!r}") from None
     geographic = text.strip().lower().startswith(GEO_PREFIX)
     body = text.strip()[len(GEO_PREFIX):] if geographic else text
     form = "geo:LAT,LON or geo:LAT,LON,RADIUS (degrees, metres)" if geographic else \

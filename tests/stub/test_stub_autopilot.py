@@ -236,7 +236,7 @@ def test_requests_and_refusals():
     assert rig.cmd(mavlink.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, 0, 0, 10)[0] == mavlink.MAV_RESULT_ACCEPTED
     assert rig.cmd(mavlink.MAV_CMD_DO_SET_MODE, 1, 4, target_system=9)[0] is None
     (count,) = rig.send(mavlink.MAVLink_mission_request_list_message(1, 1, 0))
-    assert count.get_type() == "MISSION_COUNT" and count.count == 0
+    assert count.get_type() == "MISSION_COUNT" and count.count == 1   # home only (item 0), as ArduCopter once home is set
     (nak,) = rig.send(mavlink.MAVLink_file_transfer_protocol_message(
         0, 1, 1, [0, 0, 0, 4] + [0] * 247))
     assert nak.payload[3] == 129 and nak.payload[5] == 4 and nak.payload[12] == 10
