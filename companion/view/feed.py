@@ -201,20 +201,32 @@ async def publish(pipeline, address: tuple[str, int], rate_hz: float = FEED_RATE
     transport, protocol = await loop.create_datagram_endpoint(_Quiet, remote_addr=address)
     log.info("view feed to udp:%s:%d at %.0f Hz", *address, rate_hz)
     cursor, seq = PathCursor(), 0
+
+    def send() -> bool:
+        """One datagram; False when the feed must stop."""
+        nonlocal seq
+        seq += 1
+        try:
+            data = encode(feed_state(pipeline, seq, cursor))
+        except ValueError as exc:          # a non-finite value (a diverging estimate)
+            log.warning("view feed: datagram %d not sent: %s", seq, exc)
+            return True
+        except Exception:
+            # The view is for people watching; avoidance must not stop for it. Say so once,
+            # loudly, and stop feeding (the service goes on).
+            log.exception("view feed stopped by a fault in building its state")
+            return False
+        transport.sendto(data)
+        return True
+
+    healthy = True
     try:
-        while True:
+        while healthy:
             await asyncio.sleep(1.0 / rate_hz)
-            seq += 1
-            try:
-                data = encode(feed_state(pipeline, seq, cursor))
-            except ValueError as exc:          # a non-finite value (a diverging estimate)
-                log.warning("view feed: datagram %d not sent: %s", seq, exc)
-                continue
-            except Exception:
-                # The view is for people watching; avoidance must not stop for it. Say so once,
-                # loudly, and stop feeding (the service goes on).
-                log.exception("view feed stopped by a fault in building its state")
-                return
-            transport.sendto(data)
+            healthy = send()
     finally:
+        # The last picture on shutdown: a lock-step flight can end (arrival, SIGTERM) within
+        # one feed period, and the view would never see the arrival.
+        if healthy:
+            send()
         transport.close()
