@@ -51,7 +51,10 @@ def random_world(base: Scenario, kind: str, seed: int) -> Scenario:
     rng = np.random.default_rng([seed, 0x5EED])     # independent of the run's noise stream
     leg = rng.uniform(*spec.leg_m)
     d = base.avoidance.safety_distance_m
-    keep_out = d + spec.clear_of_ends_m
+    # A vehicle that starts cruising needs its stopping distance at least (at 15 m/s, 45 m).
+    vehicle = base.vehicle
+    stopping_m = vehicle.speed_mps ** 2 / (2.0 * vehicle.max_accel_mps2)
+    keep_out = d + max(spec.clear_of_ends_m, stopping_m)
     wanted = int(rng.integers(spec.count[0], spec.count[1] + 1))
     centres: list[np.ndarray] = []
     for _ in range(max(2000, PLACEMENT_TRIES_PER_OBSTACLE * wanted)):

@@ -10,7 +10,7 @@ from companion.worlds import KINDS, random_world
 
 DEFAULT_SCENARIO = "config/scenarios/paper.yaml"
 from companion.report import print_summary, write_json
-from companion.simulation import aggregate, run_once, with_position_fusion
+from companion.simulation import aggregate, run_once, with_position_fusion, with_speed
 
 
 def add_parser(sub) -> None:
@@ -29,6 +29,9 @@ def add_parser(sub) -> None:
                    help="guidance strategy (default: the scenario's)")
     p.add_argument("--position-fusion", choices=("auto", "on", "off"), default=None,
                    help="fuse the autopilot's position or not (default: the scenario's estimator)")
+    p.add_argument("--speed-mps", type=_positive_float, default=None,
+                   help="fly at this cruise speed instead of the scenario's vehicle.speed_mps "
+                        "(random worlds give the mission time to match)")
     p.add_argument("--json", metavar="PATH", help="write {aggregate, runs} as JSON")
     p.add_argument("--plot", metavar="PATH", help="draw the first run as a PNG (paper's Figure 4)")
     p.set_defaults(handler=run)
@@ -41,11 +44,19 @@ def _positive_int(text: str) -> int:
     return value
 
 
+def _positive_float(text: str) -> float:
+    value = float(text)
+    if not value > 0.0:
+        raise argparse.ArgumentTypeError(f"expected a positive number, got {text}")
+    return value
+
+
 def run(args: argparse.Namespace) -> int:
     if args.scenario is None and args.random_worlds is None:
         raise CompanionError("simulate: give --scenario PATH or --random-worlds KIND")
     scenario = with_position_fusion(load_scenario(args.scenario or DEFAULT_SCENARIO),
                                     args.position_fusion)
+    scenario = with_speed(scenario, args.speed_mps)
     strategy = args.strategy or scenario.avoidance.strategy
     seeds = range(args.seed, args.seed + args.runs)
     outcomes = []

@@ -39,6 +39,21 @@ class MoverState:
     position_ne_m: np.ndarray
     velocity_ne_mps: np.ndarray
     position_cov: np.ndarray
+    velocity_cov: np.ndarray | None = None     # (2,2)
+
+
+def mover_growth(movers: list[MoverState], rows: int, sigmas: float) -> np.ndarray | None:
+    """(rows,) how fast each obstacle row's safety radius grows with time (m/s): ``sigmas``
+    standard deviations of a mover's velocity along its worst axis, 0 for the static rows that
+    come first; None without movers. A track out of view keeps growing: its covariance does."""
+    if not movers:
+        return None
+    growth = np.zeros(rows)
+    for k, mover in enumerate(movers):
+        if mover.velocity_cov is not None:
+            worst = float(np.linalg.eigvalsh(0.5 * (mover.velocity_cov + mover.velocity_cov.T))[-1])
+            growth[rows - len(movers) + k] = sigmas * math.sqrt(max(worst, 0.0))
+    return growth
 
 
 def world_measurement(pose: np.ndarray, pose_cov: np.ndarray, z: np.ndarray,
@@ -115,7 +130,8 @@ class MoverTracker:
         q = self.params.accel_sigma_mps2 ** 2
         cov = (kf.P[:2, :2] + dt * (kf.P[:2, 2:] + kf.P[2:, :2]) + dt * dt * kf.P[2:, 2:]
                + q * dt ** 4 / 4.0 * np.eye(2))
-        return MoverState(track_id, oid, position, kf.x[2:].copy(), cov)
+        vel_cov = kf.P[2:, 2:] + q * dt * dt * np.eye(2)
+        return MoverState(track_id, oid, position, kf.x[2:].copy(), cov, vel_cov)
 
     def states(self, t_s: float) -> list[MoverState]:
         return [self.state(track_id, t_s) for track_id in self._tracks]
