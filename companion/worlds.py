@@ -44,9 +44,11 @@ PLACEMENT_TRIES_PER_OBSTACLE = 100
 
 
 def random_world(base: Scenario, kind: str, seed: int) -> Scenario:
-    """A scenario like ``base`` flying a freshly drawn world of ``kind`` (see KINDS)."""
+    """A scenario like ``base`` flying a freshly drawn world of ``kind`` (see WORLD_KINDS)."""
+    if kind in TRAFFIC_KINDS:
+        return traffic_world(base, kind, seed)
     if kind not in KINDS:
-        raise ValueError(f"unknown world kind {kind!r} (expected one of {', '.join(KINDS)})")
+        raise ValueError(f"unknown world kind {kind!r} (expected one of {', '.join(WORLD_KINDS)})")
     spec = KINDS[kind]
     rng = np.random.default_rng([seed, 0x5EED])     # independent of the run's noise stream
     leg = rng.uniform(*spec.leg_m)
@@ -83,3 +85,51 @@ def random_world(base: Scenario, kind: str, seed: int) -> Scenario:
     avoidance = dataclasses.replace(base.avoidance, mission_time_s=max_time)
     return dataclasses.replace(base, name=f"{kind}-{seed}", world=world, mission=mission,
                                avoidance=avoidance)
+
+
+# Movers at 3 to 5 m/s timed to meet the vehicle (issue 16): among a sparse static field,
+# head-on (along the leg toward the start), crossing (across it, 10 to 40 degrees from square toward
+# the vehicle) or overtaken (along the leg, slower than the vehicle).
+TRAFFIC_KINDS = {
+    "traffic": ("head-on", "crossing", "crossing"),
+    "head-on": ("head-on", "head-on"),
+    "crossing": ("crossing", "crossing", "crossing"),
+    "overtaking": ("overtaking", "overtaking"),
+}
+TRAFFIC_SPEED_MPS = (3.0, 5.0)
+WORLD_KINDS = tuple(KINDS) + tuple(TRAFFIC_KINDS)
+
+
+def traffic_world(base: Scenario, kind: str, seed: int) -> Scenario:
+    """A sparse world of ``base`` (same seed) plus the movers of ``kind``, each placed so that it
+    would meet the vehicle flying straight at cruise speed: the worst case, not a chance one."""
+    world = random_world(base, "sparse", seed)
+    rng = np.random.default_rng([seed, 0x7AFF1C])
+    leg = world.world.goal.north_m
+    speed = base.vehicle.speed_mps
+    movers = []
+    next_id = len(world.world.obstacles) + 1
+    for pattern in TRAFFIC_KINDS[kind]:
+        mover_speed = rng.uniform(*TRAFFIC_SPEED_MPS)
+        meet_north = rng.uniform(0.3, 0.8) * leg
+        meet_t = meet_north / speed
+        if pattern == "head-on":
+            heading = math.pi + rng.uniform(-0.1, 0.1)
+        elif pattern == "crossing":
+            # 10 to 40 degrees from square, toward the vehicle: the camera can see it coming
+            # (one that gains on the vehicle from behind the camera's view never can)
+            heading = rng.choice([-1.0, 1.0]) * (0.5 * math.pi + rng.uniform(math.radians(10.0), math.radians(40.0)))
+        else:                                    # overtaken: slower, same way, just ahead
+            mover_speed = min(mover_speed, 0.6 * speed)
+            heading = rng.uniform(-0.1, 0.1)
+        vel = mover_speed * np.array([math.cos(heading), math.sin(heading)])
+        start = np.array([meet_north, rng.uniform(-3.0, 3.0)]) - vel * meet_t
+        movers.append(Obstacle(id=next_id, north_m=float(start[0]), east_m=float(start[1]),
+                               radius_m=float(rng.uniform(1.0, 2.0)),
+                               vel_north_mps=float(vel[0]), vel_east_mps=float(vel[1])))
+        next_id += 1
+    # a mover's circle may not start over the vehicle: the flight could not begin
+    d = base.avoidance.safety_distance_m
+    movers = [m for m in movers if math.hypot(m.north_m, m.east_m) > 2.0 * d]
+    new_world = dataclasses.replace(world.world, obstacles=world.world.obstacles + tuple(movers))
+    return dataclasses.replace(world, name=f"{kind}-{seed}", world=new_world)

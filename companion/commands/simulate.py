@@ -6,7 +6,7 @@ import sys
 
 from companion.errors import CompanionError
 from companion.config import load_scenario
-from companion.worlds import KINDS, random_world
+from companion.worlds import WORLD_KINDS, random_world
 
 DEFAULT_SCENARIO = "config/scenarios/paper.yaml"
 from companion.report import print_summary, write_json
@@ -20,9 +20,9 @@ def add_parser(sub) -> None:
     p.add_argument("--scenario", help="scenario YAML (see config/scenarios/); with --random-worlds, "
                                       "the base whose vehicle, sensor and guidance are kept "
                                       f"(default {DEFAULT_SCENARIO})")
-    p.add_argument("--random-worlds", choices=sorted(KINDS), metavar="KIND",
+    p.add_argument("--random-worlds", choices=sorted(WORLD_KINDS), metavar="KIND",
                    help="fly seeded random worlds instead: run i flies world S+i "
-                        f"({', '.join(sorted(KINDS))})")
+                        f"({', '.join(sorted(WORLD_KINDS))})")
     p.add_argument("--runs", type=_positive_int, default=1, help="number of runs (default 1)")
     p.add_argument("--seed", type=int, default=0, help="seed of the first run (default 0)")
     p.add_argument("--strategy", choices=("cone", "union", "apf"), default=None,

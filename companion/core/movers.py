@@ -76,12 +76,17 @@ class MoverTracker:
         return len(self._tracks)
 
     def create(self, t_s: float, position: np.ndarray, position_cov: np.ndarray,
-               obstacle_id: int | None) -> int:
+               obstacle_id: int | None,
+               velocity: tuple[np.ndarray, float] | None = None) -> int:
+        """A new track at a world point; ``velocity``: a first estimate (2,) and its standard
+        error (m/s), else at rest with initial_speed_sigma_mps."""
         kf = KalmanFilter(dim_x=4, dim_z=2)
-        kf.x = np.array([position[0], position[1], 0.0, 0.0])
+        vel, vel_sigma = (np.zeros(2), self.params.initial_speed_sigma_mps) if velocity is None \
+            else (np.asarray(velocity[0], dtype=float), float(velocity[1]))
+        kf.x = np.array([position[0], position[1], vel[0], vel[1]])
         kf.P = np.zeros((4, 4))
         kf.P[:2, :2] = position_cov
-        kf.P[2:, 2:] = np.eye(2) * self.params.initial_speed_sigma_mps ** 2
+        kf.P[2:, 2:] = np.eye(2) * vel_sigma ** 2
         kf.H = np.hstack([np.eye(2), np.zeros((2, 2))])
         track_id = self._next_id
         self._next_id += 1

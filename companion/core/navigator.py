@@ -383,7 +383,8 @@ class Navigator:
                 best, best_gap = key, gap
         return best
 
-    def _demote(self, oid: int, obs: Observation, used: set[int] | None = None) -> None:
+    def _demote(self, oid: int, obs: Observation, used: set[int] | None = None,
+                velocity: tuple[np.ndarray, float] | None = None) -> None:
         """Marginalise landmark ``oid`` out of the map and start a mover track at ``obs``."""
         self._strikes.pop(oid, None)
         self._young.pop(oid, None)
@@ -394,7 +395,7 @@ class Navigator:
             used.clear()
             used.update(shifted)
         point, cov = self._world_point(obs)
-        self.movers.create(self.clock_s, point, cov, oid if oid >= 0 else None)
+        self.movers.create(self.clock_s, point, cov, oid if oid >= 0 else None, velocity)
         self.movers_detected += 1
 
     def _judge_young(self) -> list[UpdateReport]:
@@ -419,7 +420,9 @@ class Navigator:
                 speed = float(np.hypot(*velocity)) - crab
                 moving = speed > params.speed_threshold_mps and speed > params.speed_sigmas * sigma
             if moving:
-                self._demote(oid, young.last_obs)
+                # the track starts at the velocity that convicted it: a mover that leaves the
+                # view soon after is then predicted where it goes, not left standing
+                self._demote(oid, young.last_obs, velocity=(velocity, sigma))
                 detected.append(UpdateReport("mover_detected", None, None, None, oid))
         return detected
 
