@@ -136,3 +136,28 @@ def test_multicopter_random_worlds_gps_denied(tmp_path, kind, success):
     agg = report["aggregate"]
     assert agg["success_rate"] >= success and agg["collision_rate"] == 0.0
     assert agg["arrivals"]["max_true_goal_distance_m"] <= 2.0 + 2.0
+
+
+def test_dense_worlds_at_15_mps_keep_the_safety_distance(tmp_path):
+    """Issue 16: at 15 m/s the turn radius is 29 m; the velocity choice still keeps 0.95 d."""
+    report = simulate(tmp_path, "--random-worlds", "dense", "--speed-mps", "15", "--runs", "8")
+    agg = report["aggregate"]
+    assert agg["collision_rate"] == 0.0 and agg["success_rate"] == 1.0
+    assert agg["min_clearance_m"]["min"] >= 9.5
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("speed", ["10", "15"])
+def test_dense_worlds_at_speed_acceptance(tmp_path, speed):
+    report = simulate(tmp_path, "--random-worlds", "dense", "--speed-mps", speed, "--runs", "100")
+    agg = report["aggregate"]
+    assert agg["collision_rate"] == 0.0 and agg["success_rate"] >= 0.99
+    assert agg["min_clearance_m"]["min"] >= 9.5
+
+
+@pytest.mark.slow
+def test_traffic_worlds_acceptance(tmp_path):
+    """Movers at 3-5 m/s head-on and crossing (issue 16's target: 95%; see the README)."""
+    report = simulate(tmp_path, "--random-worlds", "traffic", "--runs", "100")
+    assert report["aggregate"]["collision_rate"] == 0.0
+    assert report["aggregate"]["success_rate"] >= 0.95
