@@ -19,7 +19,7 @@ from companion.simulation import run_once, with_speed
 from companion.worlds import random_world
 
 ROWS = ("sparse@5", "dense@5", "dense@10", "dense@15", "moving@5", "head-on@5", "crossing@5",
-        "overtaking@5", "traffic@5")
+        "overtaking@5", "traffic@5", "gate@5", "trap@5")
 
 
 def main() -> None:

@@ -47,6 +47,8 @@ def random_world(base: Scenario, kind: str, seed: int) -> Scenario:
     """A scenario like ``base`` flying a freshly drawn world of ``kind`` (see WORLD_KINDS)."""
     if kind in TRAFFIC_KINDS:
         return traffic_world(base, kind, seed)
+    if kind in POST_KINDS:
+        return POST_KINDS[kind](base, seed)
     if kind not in KINDS:
         raise ValueError(f"unknown world kind {kind!r} (expected one of {', '.join(WORLD_KINDS)})")
     spec = KINDS[kind]
@@ -97,7 +99,6 @@ TRAFFIC_KINDS = {
     "overtaking": ("overtaking", "overtaking"),
 }
 TRAFFIC_SPEED_MPS = (3.0, 5.0)
-WORLD_KINDS = tuple(KINDS) + tuple(TRAFFIC_KINDS)
 
 
 def traffic_world(base: Scenario, kind: str, seed: int) -> Scenario:
@@ -133,3 +134,59 @@ def traffic_world(base: Scenario, kind: str, seed: int) -> Scenario:
     movers = [m for m in movers if math.hypot(m.north_m, m.east_m) > 2.0 * d]
     new_world = dataclasses.replace(world.world, obstacles=world.world.obstacles + tuple(movers))
     return dataclasses.replace(world, name=f"{kind}-{seed}", world=new_world)
+
+
+POST_SPACING_M = 4.0          # walls are rows of posts (circles) this far apart, 1 m radius
+POST_RADIUS_M = 1.0
+
+
+def _posts(a: np.ndarray, b: np.ndarray) -> list[np.ndarray]:
+    """Post centres from a to b (inclusive), POST_SPACING_M apart."""
+    n = max(1, int(round(float(np.hypot(*(b - a))) / POST_SPACING_M)))
+    return [a + (b - a) * k / n for k in range(n + 1)]
+
+
+def _post_world(base: Scenario, name: str, leg: float, centres: list[np.ndarray]) -> Scenario:
+    obstacles = tuple(Obstacle(id=i + 1, north_m=float(c[0]), east_m=float(c[1]),
+                               radius_m=POST_RADIUS_M) for i, c in enumerate(centres))
+    world = World(start=StartPose(0.0, 0.0, 0.0), goal=Goal(float(leg), 0.0, base.world.goal.radius_m),
+                  obstacles=obstacles, origin=base.world.origin)
+    max_time = max(base.mission.max_time_s, 4.0 * leg / base.vehicle.speed_mps)
+    mission = dataclasses.replace(base.mission, max_time_s=max_time)
+    avoidance = dataclasses.replace(base.avoidance, mission_time_s=max_time)
+    return dataclasses.replace(base, name=name, world=world, mission=mission, avoidance=avoidance)
+
+
+def gate_world(base: Scenario, seed: int, margin_m: float | None = None) -> Scenario:
+    """A 160 m wall of posts across a 200 m leg with one gate whose safety circles leave 2 to 4 m
+    (centre to centre 2 d + 2 to 4 m, or 2 d + ``margin_m``), 0 to 20 m off the straight line."""
+    rng = np.random.default_rng([seed, 0x6A7E])
+    d = base.avoidance.safety_distance_m
+    leg, wall_north = 200.0, 100.0
+    width = 2.0 * d + rng.uniform(2.0, 4.0)
+    if margin_m is not None:
+        width = 2.0 * d + margin_m
+    centre = rng.uniform(-20.0, 20.0)
+    left = _posts(np.array([wall_north, -80.0]), np.array([wall_north, centre - width / 2]))
+    right = _posts(np.array([wall_north, centre + width / 2]), np.array([wall_north, 80.0]))
+    return _post_world(base, f"gate-{seed}", leg, left + right)
+
+
+def trap_world(base: Scenario, seed: int) -> Scenario:
+    """A U of posts opening toward the start, across the straight line: 30 to 40 m wide inside,
+    20 to 30 m deep; the way round is outside it."""
+    rng = np.random.default_rng([seed, 0x7A1F])
+    leg = 200.0
+    half = rng.uniform(15.0, 20.0)
+    depth = rng.uniform(20.0, 30.0)
+    back = rng.uniform(90.0, 110.0)
+    offset = rng.uniform(-5.0, 5.0)
+    corners = [np.array([back - depth, offset - half]), np.array([back, offset - half]),
+               np.array([back, offset + half]), np.array([back - depth, offset + half])]
+    centres = _posts(corners[0], corners[1]) + _posts(corners[1], corners[2])[1:] \
+        + _posts(corners[2], corners[3])[1:]
+    return _post_world(base, f"trap-{seed}", leg, centres)
+
+
+POST_KINDS = {"gate": gate_world, "trap": trap_world}
+WORLD_KINDS = tuple(KINDS) + tuple(TRAFFIC_KINDS) + tuple(POST_KINDS)

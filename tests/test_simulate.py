@@ -163,3 +163,30 @@ def test_traffic_worlds_acceptance(tmp_path):
     report = simulate(tmp_path, "--random-worlds", "traffic", "--runs", "100")
     assert report["aggregate"]["collision_rate"] == 0.0
     assert report["aggregate"]["success_rate"] >= 0.95
+
+
+def test_a_gate_of_2d_plus_2m_is_flown_through():
+    """Issue 16: a 160 m wall of posts with a gate whose safety circles leave 2 m: through it
+    (the straight line is 198 m; round the wall about 300 m)."""
+    from companion.config import load_scenario
+    from companion.simulation import run_once
+    from companion.worlds import gate_world
+    for seed in (0, 1):
+        summary = run_once(gate_world(load_scenario("config/scenarios/paper.yaml"), seed, 2.0),
+                           seed).summary
+        assert summary["reached_goal"] and not summary["collided"]
+        assert summary["min_clearance_m"] >= 9.5
+        assert summary["path_length_m"] < 215.0
+
+
+def test_a_u_trap_is_escaped():
+    """A U of posts opening toward the start, across the straight line."""
+    report_runs = []
+    from companion.config import load_scenario
+    from companion.simulation import run_once
+    from companion.worlds import trap_world
+    for seed in (0, 1, 2):
+        summary = run_once(trap_world(load_scenario("config/scenarios/paper.yaml"), seed),
+                           seed).summary
+        report_runs.append(summary)
+        assert summary["reached_goal"] and summary["min_clearance_m"] >= 9.5

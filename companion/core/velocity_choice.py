@@ -47,9 +47,14 @@ def choose_velocity(pose: np.ndarray, goal_heading: float, goal_distance: float,
     position = pose[:2]
     yaw = float(pose[2])
     geometry = Geometry.of(position, obstacles, radii, params.eta)
+    gates = gate_headings(position, obstacles, radii, union.gap_margin_m) \
+        if velocities is None and union.gap_margin_m is not None else np.empty(0)
     candidates = np.concatenate([candidate_headings(goal_heading, reference, geometry,
-                                                    velocities is not None), GRID])
+                                                    velocities is not None), GRID, gates])
     candidates = wrap_angles(candidates)
+    through_gate = np.zeros(len(candidates), dtype=bool)
+    if gates.size:
+        through_gate[-gates.size:] = True
     offset = wrap_angles(candidates - goal_heading)
     cost = np.abs(offset) + union.hysteresis * np.abs(wrap_angles(candidates - reference))
     if side:
@@ -76,7 +81,8 @@ def choose_velocity(pose: np.ndarray, goal_heading: float, goal_distance: float,
         blocked = blocking(candidates, position, obstacles, radii, params.eta,
                            min(max(speed, motion.speed_mps) * union.lookahead_s, goal_distance),
                            speed, velocities, union.lookahead_s, geometry).any(axis=1)
-        free = np.flatnonzero(~blocked)
+        # a gate's heading passes between cones by construction: its flown path alone decides
+        free = np.flatnonzero(~blocked | through_gate)
         if free.size == 0:
             continue
         free = free[np.argsort(cost[free], kind="stable")]
@@ -114,3 +120,37 @@ def _most_urgent(position: np.ndarray, motion: Motion, goal_heading: float, crui
         return None, None
     first = int(violated[np.argmin(when[violated])])
     return first, float(when[first])
+
+
+def gate_headings(position: np.ndarray, obstacles: np.ndarray, radii: np.ndarray,
+                  margin_m: float) -> np.ndarray:
+    """Headings to the middle of every gap between two obstacles whose safety circles leave at
+    least ``margin_m`` between them, with no other circle across the gap. (k,) radians.
+
+    The eta-scaled cones close such a gap (eta * asin(d / |X|) of each side overlap), so the
+    union law goes round a wall with a gate in it; the gate's heading is taken when its flown
+    path keeps every safety distance, and wins when it is nearer the goal.
+    """
+    n = len(obstacles)
+    if n < 2:
+        return np.empty(0)
+    i, j = np.triu_indices(n, 1)
+    width = np.hypot(*(obstacles[i] - obstacles[j]).T)
+    ok = width >= radii[i] + radii[j] + margin_m
+    i, j = i[ok], j[ok]
+    if i.size == 0:
+        return np.empty(0)
+    a, b = obstacles[i], obstacles[j]                                   # (m, 2)
+    ab = b - a
+    # no third obstacle between a and b whose circle reaches the line a-b (neighbours beyond
+    # either end, as the rest of a wall, overlap its ends only: the flown path decides those)
+    t = np.einsum("mkd,md->mk", obstacles[None, :, :] - a[:, None, :], ab) \
+        / np.einsum("md,md->m", ab, ab)[:, None]                        # (m, n)
+    closest = a[:, None, :] + t[..., None] * ab[:, None, :]
+    across = (np.hypot(*(obstacles[None, :, :] - closest).transpose(2, 0, 1)) < radii[None, :]) \
+        & (t > 0.0) & (t < 1.0)
+    across[np.arange(i.size), i] = False
+    across[np.arange(i.size), j] = False
+    keep = ~across.any(axis=1)
+    middle = 0.5 * (a[keep] + b[keep]) - position
+    return np.arctan2(middle[:, 1], middle[:, 0])

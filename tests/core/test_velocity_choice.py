@@ -8,6 +8,7 @@ from companion.core.arc import Motion, clearance, fly_out
 from companion.core.geometry import wrap_angles
 from companion.core.guidance import GuidanceParams
 from companion.core.union import UnionParams, guide_union, sensed_speed_limit
+from companion.core.velocity_choice import gate_headings
 
 D = 10.0
 RATE = math.radians(30.0)
@@ -115,3 +116,12 @@ def test_time_to_closest_approach_ranks_the_threats():
     command = guide_union(POSE, GOAL, obstacles, None, params(5.0), union, None, velocities=velocities,
                           motion=flying(5.0))
     assert command.urgent_index == 1
+
+
+def test_gate_headings_find_the_gap_in_a_wall_of_posts():
+    wall = [np.array([50.0, e]) for e in np.arange(-40.0, -10.0, 4.0)] \
+        + [np.array([50.0, e]) for e in np.arange(12.0, 41.0, 4.0)]
+    obstacles = np.array(wall)                  # the gap: posts at -12 and 12, 24 m apart
+    headings = gate_headings(POSE[:2], obstacles, np.full(len(obstacles), D), 2.0)
+    assert headings == pytest.approx([0.0], abs=1e-9)
+    assert gate_headings(POSE[:2], obstacles, np.full(len(obstacles), D), 5.0).size == 0
