@@ -2,7 +2,7 @@
 
     python benchmarks/speed_table.py [--runs 100] [--rows dense@5 dense@10 traffic@5 ...]
 
-Each row flies `companion simulate --random-worlds KIND --speed-mps V --runs N` (seeds 0..N-1)
+A row ``KIND@V+gaps`` sets avoidance.gap_margin_m to 1 m. Each row flies `companion simulate --random-worlds KIND --speed-mps V --runs N` (seeds 0..N-1)
 on config/scenarios/paper.yaml. Columns: success (goal reached with clearance >= 0.95 d),
 collisions (true distance below the obstacle's radius), closest approach p5 and min, median
 detour (path length minus the straight line to the goal radius), wall time.
@@ -10,6 +10,7 @@ detour (path length minus the straight line to the goal radius), wall time.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import time
 
 import numpy as np
@@ -19,7 +20,7 @@ from companion.simulation import run_once, with_speed
 from companion.worlds import random_world
 
 ROWS = ("sparse@5", "dense@5", "dense@10", "dense@15", "moving@5", "head-on@5", "crossing@5",
-        "overtaking@5", "traffic@5", "gate@5", "trap@5")
+        "overtaking@5", "traffic@5", "gate@5", "gate@5+gaps", "trap@5", "dense@5+gaps")
 
 
 def main() -> None:
@@ -33,7 +34,12 @@ def main() -> None:
     print("|---|---|---|---|---|---|---|")
     for row in args.rows:
         kind, speed = row.split("@")
+        gaps = speed.endswith("+gaps")            # avoidance.gap_margin_m = 1 m
+        speed = speed.removesuffix("+gaps")
         scenario = with_speed(base, float(speed))
+        if gaps:
+            scenario = dataclasses.replace(scenario, avoidance=dataclasses.replace(
+                scenario.avoidance, gap_margin_m=1.0))
         start = time.perf_counter()
         rows = []
         for seed in range(args.runs):
@@ -45,7 +51,7 @@ def main() -> None:
             rows.append((s["reached_goal"] and s["min_clearance_m"] >= 0.95 * d, s["collided"],
                          s["min_clearance_m"], s["path_length_m"] - straight))
         ok, hit, clear, detour = map(np.array, zip(*rows))
-        print(f"| {kind} | {float(speed):g} m/s | {ok.mean():.2f} | {hit.mean():.2f} | "
+        print(f"| {kind} | {float(speed):g} m/s{', gaps 1 m' if gaps else ''} | {ok.mean():.2f} | {hit.mean():.2f} | "
               f"{np.percentile(clear, 5):.1f} m ({clear.min():.1f} m) | {np.median(detour):.1f} m | "
               f"{time.perf_counter() - start:.0f} |", flush=True)
 

@@ -44,7 +44,7 @@ class UnionParams:
     fov_rad: float = 0.5 * math.pi    # the camera's field of view: see turn_speed_factor
     mover_sigmas: float = 1.0         # a mover's radius grows by this many sigma of its velocity
     sensor_range_m: float | None = None   # velocity choice: never outrun the camera (None: off)
-    gap_margin_m: float | None = 1.0  # velocity choice: fly through gaps whose safety circles
+    gap_margin_m: float | None = None  # velocity choice: fly through gaps whose safety circles
                                       # leave this much between them (None: never)
 
 
