@@ -206,11 +206,14 @@ class AvoidanceConfig:
     lookahead_s: float = 6.0              # union: cones count within speed * lookahead
     hysteresis: float = 0.5               # union: weight of turning away from the last choice
     camera_fov_deg: float | None = None   # union: turn in place beyond it (None: the sensor's, or 90)
+    gap_margin_m: float | None = None     # union in simulate: fly gaps whose circles leave this (None: never)
 
     def __post_init__(self) -> None:
         _positive("safety_distance_m", self.safety_distance_m)
         _positive("lookahead_s", self.lookahead_s)
         require(self.hysteresis >= 0.0, "hysteresis", self.hysteresis, "a weight >= 0")
+        if self.gap_margin_m is not None:
+            require(self.gap_margin_m >= 0.0, "gap_margin_m", self.gap_margin_m, "a margin >= 0 m")
         if self.camera_fov_deg is not None:
             require(0.0 < self.camera_fov_deg <= 360.0, "camera_fov_deg", self.camera_fov_deg,
                     "a field of view in (0, 360]")
@@ -225,7 +228,8 @@ class AvoidanceConfig:
 
     def union_params(self, sensor_fov_rad: float = math.radians(90.0)) -> UnionParams:
         fov = math.radians(self.camera_fov_deg) if self.camera_fov_deg is not None else sensor_fov_rad
-        return UnionParams(lookahead_s=self.lookahead_s, hysteresis=self.hysteresis, fov_rad=fov)
+        return UnionParams(lookahead_s=self.lookahead_s, hysteresis=self.hysteresis, fov_rad=fov,
+                           gap_margin_m=self.gap_margin_m)
 
     def guidance_params(self, cruise_speed_mps: float, goal_radius_m: float) -> GuidanceParams:
         return GuidanceParams(

@@ -16,6 +16,7 @@ from scipy.stats import chi2
 from companion.config import Scenario
 from companion.core.blobs import BlobParams, blob_observations
 from companion.core.consistency import STATES, radius_2sigma_m
+from companion.core.arc import VehicleLimits
 from companion.core.geometry import wrap_angle
 from companion.core.guidance import limit_turn
 from companion.core.navigator import Navigator
@@ -57,8 +58,17 @@ def make_navigator(scenario: Scenario, strategy: str | None = None) -> Navigator
     goal = np.array([scenario.world.goal.north_m, scenario.world.goal.east_m])
     return Navigator(pose, pose_cov, est.slam_noise(), est.gates(), scenario.guidance_params(),
                      goal, strategy or scenario.avoidance.strategy,
-                     scenario.avoidance.union_params(scenario.sensor.fov_rad),
-                     mover_params=est.mover_params(), options=est.options())
+                     dataclasses.replace(scenario.avoidance.union_params(scenario.sensor.fov_rad),
+                                         sensor_range_m=scenario.sensor.max_range_m),
+                     mover_params=est.mover_params(), options=est.options(),
+                     limits=vehicle_limits(scenario))
+
+
+def vehicle_limits(scenario: Scenario) -> VehicleLimits:
+    """The truth vehicle's limits, for the guidance's velocity choice."""
+    vehicle = scenario.vehicle
+    return VehicleLimits(vehicle.max_turn_rate_rad_s, vehicle.max_accel_mps2,
+                         lateral_accel_limited=vehicle.kind == "multicopter")
 
 
 def pose_nees(true_pose: np.ndarray, est_pose: np.ndarray, cov: np.ndarray) -> float:
@@ -84,6 +94,14 @@ def camera_frame(truth: TruthWorld, blobs: BlobParams) -> list:
     if form in ("sectors", "both"):
         frame += blob_observations(*truth.observe_sectors(), blobs)
     return frame
+
+
+def with_speed(scenario: Scenario, speed_mps: float | None) -> Scenario:
+    """The scenario with its vehicle's cruise speed replaced (None: as it is)."""
+    if speed_mps is None:
+        return scenario
+    vehicle = dataclasses.replace(scenario.vehicle, speed_mps=float(speed_mps))
+    return dataclasses.replace(scenario, vehicle=vehicle)
 
 
 def run_once(scenario: Scenario, seed: int, strategy: str | None = None) -> RunOutcome:

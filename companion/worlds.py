@@ -44,14 +44,21 @@ PLACEMENT_TRIES_PER_OBSTACLE = 100
 
 
 def random_world(base: Scenario, kind: str, seed: int) -> Scenario:
-    """A scenario like ``base`` flying a freshly drawn world of ``kind`` (see KINDS)."""
+    """A scenario like ``base`` flying a freshly drawn world of ``kind`` (see WORLD_KINDS)."""
+    if kind in TRAFFIC_KINDS:
+        return traffic_world(base, kind, seed)
+    if kind in POST_KINDS:
+        return POST_KINDS[kind](base, seed)
     if kind not in KINDS:
-        raise ValueError(f"unknown world kind {kind!r} (expected one of {', '.join(KINDS)})")
+        raise ValueError(f"unknown world kind {kind!r} (expected one of {', '.join(WORLD_KINDS)})")
     spec = KINDS[kind]
     rng = np.random.default_rng([seed, 0x5EED])     # independent of the run's noise stream
     leg = rng.uniform(*spec.leg_m)
     d = base.avoidance.safety_distance_m
-    keep_out = d + spec.clear_of_ends_m
+    # A vehicle that starts cruising needs its stopping distance at least (at 15 m/s, 45 m).
+    vehicle = base.vehicle
+    stopping_m = vehicle.speed_mps ** 2 / (2.0 * vehicle.max_accel_mps2)
+    keep_out = d + max(spec.clear_of_ends_m, stopping_m)
     wanted = int(rng.integers(spec.count[0], spec.count[1] + 1))
     centres: list[np.ndarray] = []
     for _ in range(max(2000, PLACEMENT_TRIES_PER_OBSTACLE * wanted)):
@@ -80,3 +87,106 @@ def random_world(base: Scenario, kind: str, seed: int) -> Scenario:
     avoidance = dataclasses.replace(base.avoidance, mission_time_s=max_time)
     return dataclasses.replace(base, name=f"{kind}-{seed}", world=world, mission=mission,
                                avoidance=avoidance)
+
+
+# Movers at 3 to 5 m/s timed to meet the vehicle (issue 16): among a sparse static field,
+# head-on (along the leg toward the start), crossing (across it, 10 to 40 degrees from square toward
+# the vehicle) or overtaken (along the leg, slower than the vehicle).
+TRAFFIC_KINDS = {
+    "traffic": ("head-on", "crossing", "crossing"),
+    "head-on": ("head-on", "head-on"),
+    "crossing": ("crossing", "crossing", "crossing"),
+    "overtaking": ("overtaking", "overtaking"),
+}
+TRAFFIC_SPEED_MPS = (3.0, 5.0)
+
+
+def traffic_world(base: Scenario, kind: str, seed: int) -> Scenario:
+    """A sparse world of ``base`` (same seed) plus the movers of ``kind``, each placed so that it
+    would meet the vehicle flying straight at cruise speed: the worst case, not a chance one."""
+    world = random_world(base, "sparse", seed)
+    rng = np.random.default_rng([seed, 0x7AFF1C])
+    leg = world.world.goal.north_m
+    speed = base.vehicle.speed_mps
+    movers = []
+    next_id = len(world.world.obstacles) + 1
+    for pattern in TRAFFIC_KINDS[kind]:
+        mover_speed = rng.uniform(*TRAFFIC_SPEED_MPS)
+        meet_north = rng.uniform(0.3, 0.8) * leg
+        meet_t = meet_north / speed
+        if pattern == "head-on":
+            heading = math.pi + rng.uniform(-0.1, 0.1)
+        elif pattern == "crossing":
+            # 10 to 40 degrees from square, toward the vehicle: the camera can see it coming
+            # (one that gains on the vehicle from behind the camera's view never can)
+            heading = rng.choice([-1.0, 1.0]) * (0.5 * math.pi + rng.uniform(math.radians(10.0), math.radians(40.0)))
+        else:                                    # overtaken: slower, same way, just ahead
+            mover_speed = min(mover_speed, 0.6 * speed)
+            heading = rng.uniform(-0.1, 0.1)
+        vel = mover_speed * np.array([math.cos(heading), math.sin(heading)])
+        start = np.array([meet_north, rng.uniform(-3.0, 3.0)]) - vel * meet_t
+        movers.append(Obstacle(id=next_id, north_m=float(start[0]), east_m=float(start[1]),
+                               radius_m=float(rng.uniform(1.0, 2.0)),
+                               vel_north_mps=float(vel[0]), vel_east_mps=float(vel[1])))
+        next_id += 1
+    # a mover's circle may not start over the vehicle: the flight could not begin
+    d = base.avoidance.safety_distance_m
+    movers = [m for m in movers if math.hypot(m.north_m, m.east_m) > 2.0 * d]
+    new_world = dataclasses.replace(world.world, obstacles=world.world.obstacles + tuple(movers))
+    return dataclasses.replace(world, name=f"{kind}-{seed}", world=new_world)
+
+
+POST_SPACING_M = 4.0          # walls are rows of posts (circles) this far apart, 1 m radius
+POST_RADIUS_M = 1.0
+
+
+def _posts(a: np.ndarray, b: np.ndarray) -> list[np.ndarray]:
+    """Post centres from a to b (inclusive), POST_SPACING_M apart."""
+    n = max(1, int(round(float(np.hypot(*(b - a))) / POST_SPACING_M)))
+    return [a + (b - a) * k / n for k in range(n + 1)]
+
+
+def _post_world(base: Scenario, name: str, leg: float, centres: list[np.ndarray]) -> Scenario:
+    obstacles = tuple(Obstacle(id=i + 1, north_m=float(c[0]), east_m=float(c[1]),
+                               radius_m=POST_RADIUS_M) for i, c in enumerate(centres))
+    world = World(start=StartPose(0.0, 0.0, 0.0), goal=Goal(float(leg), 0.0, base.world.goal.radius_m),
+                  obstacles=obstacles, origin=base.world.origin)
+    max_time = max(base.mission.max_time_s, 4.0 * leg / base.vehicle.speed_mps)
+    mission = dataclasses.replace(base.mission, max_time_s=max_time)
+    avoidance = dataclasses.replace(base.avoidance, mission_time_s=max_time)
+    return dataclasses.replace(base, name=name, world=world, mission=mission, avoidance=avoidance)
+
+
+def gate_world(base: Scenario, seed: int, margin_m: float | None = None) -> Scenario:
+    """A 160 m wall of posts across a 200 m leg with one gate whose safety circles leave 2 to 4 m
+    (centre to centre 2 d + 2 to 4 m, or 2 d + ``margin_m``), 0 to 20 m off the straight line."""
+    rng = np.random.default_rng([seed, 0x6A7E])
+    d = base.avoidance.safety_distance_m
+    leg, wall_north = 200.0, 100.0
+    width = 2.0 * d + rng.uniform(2.0, 4.0)
+    if margin_m is not None:
+        width = 2.0 * d + margin_m
+    centre = rng.uniform(-20.0, 20.0)
+    left = _posts(np.array([wall_north, -80.0]), np.array([wall_north, centre - width / 2]))
+    right = _posts(np.array([wall_north, centre + width / 2]), np.array([wall_north, 80.0]))
+    return _post_world(base, f"gate-{seed}", leg, left + right)
+
+
+def trap_world(base: Scenario, seed: int) -> Scenario:
+    """A U of posts opening toward the start, across the straight line: 30 to 40 m wide inside,
+    20 to 30 m deep; the way round is outside it."""
+    rng = np.random.default_rng([seed, 0x7A1F])
+    leg = 200.0
+    half = rng.uniform(15.0, 20.0)
+    depth = rng.uniform(20.0, 30.0)
+    back = rng.uniform(90.0, 110.0)
+    offset = rng.uniform(-5.0, 5.0)
+    corners = [np.array([back - depth, offset - half]), np.array([back, offset - half]),
+               np.array([back, offset + half]), np.array([back - depth, offset + half])]
+    centres = _posts(corners[0], corners[1]) + _posts(corners[1], corners[2])[1:] \
+        + _posts(corners[2], corners[3])[1:]
+    return _post_world(base, f"trap-{seed}", leg, centres)
+
+
+POST_KINDS = {"gate": gate_world, "trap": trap_world}
+WORLD_KINDS = tuple(KINDS) + tuple(TRAFFIC_KINDS) + tuple(POST_KINDS)

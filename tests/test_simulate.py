@@ -139,3 +139,60 @@ def test_multicopter_random_worlds_gps_denied(tmp_path, kind, success):
     agg = report["aggregate"]
     assert agg["success_rate"] >= success and agg["collision_rate"] == 0.0
     assert agg["arrivals"]["max_true_goal_distance_m"] <= 2.0 + 2.0
+
+
+def test_dense_worlds_at_15_mps_keep_the_safety_distance(tmp_path):
+    """Issue 16: at 15 m/s the turn radius is 29 m; the velocity choice still keeps 0.95 d."""
+    report = simulate(tmp_path, "--random-worlds", "dense", "--speed-mps", "15", "--runs", "8")
+    agg = report["aggregate"]
+    assert agg["collision_rate"] == 0.0 and agg["min_clearance_m"]["min"] >= 9.5
+    # seed 5 flies into a pocket of circles and dithers at its mouth until the time-out (the
+    # cul-de-sac escape of issue 16's item 3 is not built yet): 7 of 8
+    assert agg["success_rate"] >= 7 / 8
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("speed", ["10", "15"])
+def test_dense_worlds_at_speed_acceptance(tmp_path, speed):
+    report = simulate(tmp_path, "--random-worlds", "dense", "--speed-mps", speed, "--runs", "100")
+    agg = report["aggregate"]
+    assert agg["collision_rate"] == 0.0 and agg["success_rate"] >= 0.99
+    assert agg["min_clearance_m"]["min"] >= 9.5
+
+
+@pytest.mark.slow
+def test_traffic_worlds_acceptance(tmp_path):
+    """Movers at 3-5 m/s head-on and crossing (issue 16's target: 95%; see the README)."""
+    report = simulate(tmp_path, "--random-worlds", "traffic", "--runs", "100")
+    assert report["aggregate"]["collision_rate"] == 0.0
+    assert report["aggregate"]["success_rate"] >= 0.95
+
+
+def test_a_gate_of_2d_plus_2m_is_flown_through():
+    """Issue 16: a 160 m wall of posts with a gate whose safety circles leave 2 m: through it
+    (the straight line is 198 m; round the wall about 300 m)."""
+    import dataclasses
+
+    from companion.config import load_scenario
+    from companion.simulation import run_once
+    from companion.worlds import gate_world
+    base = load_scenario("config/scenarios/paper.yaml")
+    base = dataclasses.replace(base, avoidance=dataclasses.replace(base.avoidance, gap_margin_m=1.0))
+    for seed in (0, 1):
+        summary = run_once(gate_world(base, seed, 2.0), seed).summary
+        assert summary["reached_goal"] and not summary["collided"]
+        assert summary["min_clearance_m"] >= 9.5
+        assert summary["path_length_m"] < 215.0
+
+
+def test_a_u_trap_is_escaped():
+    """A U of posts opening toward the start, across the straight line."""
+    report_runs = []
+    from companion.config import load_scenario
+    from companion.simulation import run_once
+    from companion.worlds import trap_world
+    for seed in (0, 1, 2):
+        summary = run_once(trap_world(load_scenario("config/scenarios/paper.yaml"), seed),
+                           seed).summary
+        report_runs.append(summary)
+        assert summary["reached_goal"] and summary["min_clearance_m"] >= 9.5

@@ -16,7 +16,7 @@ from companion.config import load_scenario
 from companion.core.navigator import STRATEGIES
 from companion.errors import CompanionError
 from companion.report import _fmt, print_summary, write_json
-from companion.worlds import KINDS
+from companion.worlds import WORLD_KINDS
 
 
 def add_parser(sub) -> None:
@@ -27,8 +27,8 @@ def add_parser(sub) -> None:
                     "cluster of one process per core, started and stopped here. "
                     "Needs the cluster extra: pip install .[cluster]")
     what = p.add_mutually_exclusive_group()
-    what.add_argument("--random-worlds", choices=sorted(KINDS), metavar="KIND",
-                      help=f"fly seeded random worlds: run i flies world S+i ({', '.join(sorted(KINDS))})")
+    what.add_argument("--random-worlds", choices=sorted(WORLD_KINDS), metavar="KIND",
+                      help=f"fly seeded random worlds: run i flies world S+i ({', '.join(sorted(WORLD_KINDS))})")
     p.add_argument("--scenario", help="scenario YAML; with --random-worlds the base whose vehicle, "
                                       f"sensor and guidance are kept (default {DEFAULT_SCENARIO})")
     what.add_argument("--replay", metavar="GLOB", action="append",

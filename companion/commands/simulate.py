@@ -6,11 +6,11 @@ import sys
 
 from companion.errors import CompanionError
 from companion.config import load_scenario
-from companion.worlds import KINDS, random_world
+from companion.worlds import WORLD_KINDS, random_world
 
 DEFAULT_SCENARIO = "config/scenarios/paper.yaml"
 from companion.report import print_summary, write_json
-from companion.simulation import aggregate, run_once, with_position_fusion
+from companion.simulation import aggregate, run_once, with_position_fusion, with_speed
 
 
 def add_parser(sub) -> None:
@@ -20,15 +20,18 @@ def add_parser(sub) -> None:
     p.add_argument("--scenario", help="scenario YAML (see config/scenarios/); with --random-worlds, "
                                       "the base whose vehicle, sensor and guidance are kept "
                                       f"(default {DEFAULT_SCENARIO})")
-    p.add_argument("--random-worlds", choices=sorted(KINDS), metavar="KIND",
+    p.add_argument("--random-worlds", choices=sorted(WORLD_KINDS), metavar="KIND",
                    help="fly seeded random worlds instead: run i flies world S+i "
-                        f"({', '.join(sorted(KINDS))})")
+                        f"({', '.join(sorted(WORLD_KINDS))})")
     p.add_argument("--runs", type=_positive_int, default=1, help="number of runs (default 1)")
     p.add_argument("--seed", type=int, default=0, help="seed of the first run (default 0)")
     p.add_argument("--strategy", choices=("cone", "union", "apf"), default=None,
                    help="guidance strategy (default: the scenario's)")
     p.add_argument("--position-fusion", choices=("auto", "on", "off"), default=None,
                    help="fuse the autopilot's position or not (default: the scenario's estimator)")
+    p.add_argument("--speed-mps", type=_positive_float, default=None,
+                   help="fly at this cruise speed instead of the scenario's vehicle.speed_mps "
+                        "(random worlds give the mission time to match)")
     p.add_argument("--json", metavar="PATH", help="write {aggregate, runs} as JSON")
     p.add_argument("--plot", metavar="PATH", help="draw the first run as a PNG (paper's Figure 4)")
     p.set_defaults(handler=run)
@@ -41,11 +44,19 @@ def _positive_int(text: str) -> int:
     return value
 
 
+def _positive_float(text: str) -> float:
+    value = float(text)
+    if not value > 0.0:
+        raise argparse.ArgumentTypeError(f"expected a positive number, got {text}")
+    return value
+
+
 def run(args: argparse.Namespace) -> int:
     if args.scenario is None and args.random_worlds is None:
         raise CompanionError("simulate: give --scenario PATH or --random-worlds KIND")
     scenario = with_position_fusion(load_scenario(args.scenario or DEFAULT_SCENARIO),
                                     args.position_fusion)
+    scenario = with_speed(scenario, args.speed_mps)
     strategy = args.strategy or scenario.avoidance.strategy
     seeds = range(args.seed, args.seed + args.runs)
     outcomes = []

@@ -50,7 +50,8 @@ class GuidanceCommand:
     """What to fly: a speed and an absolute heading, plus why.
 
     mode: 'goal' (nothing urgent), 'avoid' (deflected by the cone), 'escape' (inside a safety
-    circle), 'arrived', or 'apf'.
+    circle), 'arrived', or 'apf'; the velocity choice also says 'slow' (only a quarter speed or
+    less keeps d), 'stop' (only stopping does) and 'hold' (nothing does: the most clearance).
     """
     speed_mps: float
     heading_rad: float

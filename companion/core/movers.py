@@ -39,6 +39,21 @@ class MoverState:
     position_ne_m: np.ndarray
     velocity_ne_mps: np.ndarray
     position_cov: np.ndarray
+    velocity_cov: np.ndarray | None = None     # (2,2)
+
+
+def mover_growth(movers: list[MoverState], rows: int, sigmas: float) -> np.ndarray | None:
+    """(rows,) how fast each obstacle row's safety radius grows with time (m/s): ``sigmas``
+    standard deviations of a mover's velocity along its worst axis, 0 for the static rows that
+    come first; None without movers. A track out of view keeps growing: its covariance does."""
+    if not movers:
+        return None
+    growth = np.zeros(rows)
+    for k, mover in enumerate(movers):
+        if mover.velocity_cov is not None:
+            worst = float(np.linalg.eigvalsh(0.5 * (mover.velocity_cov + mover.velocity_cov.T))[-1])
+            growth[rows - len(movers) + k] = sigmas * math.sqrt(max(worst, 0.0))
+    return growth
 
 
 def world_measurement(pose: np.ndarray, pose_cov: np.ndarray, z: np.ndarray,
@@ -61,12 +76,17 @@ class MoverTracker:
         return len(self._tracks)
 
     def create(self, t_s: float, position: np.ndarray, position_cov: np.ndarray,
-               obstacle_id: int | None) -> int:
+               obstacle_id: int | None,
+               velocity: tuple[np.ndarray, float] | None = None) -> int:
+        """A new track at a world point; ``velocity``: a first estimate (2,) and its standard
+        error (m/s), else at rest with initial_speed_sigma_mps."""
         kf = KalmanFilter(dim_x=4, dim_z=2)
-        kf.x = np.array([position[0], position[1], 0.0, 0.0])
+        vel, vel_sigma = (np.zeros(2), self.params.initial_speed_sigma_mps) if velocity is None \
+            else (np.asarray(velocity[0], dtype=float), float(velocity[1]))
+        kf.x = np.array([position[0], position[1], vel[0], vel[1]])
         kf.P = np.zeros((4, 4))
         kf.P[:2, :2] = position_cov
-        kf.P[2:, 2:] = np.eye(2) * self.params.initial_speed_sigma_mps ** 2
+        kf.P[2:, 2:] = np.eye(2) * vel_sigma ** 2
         kf.H = np.hstack([np.eye(2), np.zeros((2, 2))])
         track_id = self._next_id
         self._next_id += 1
@@ -115,7 +135,8 @@ class MoverTracker:
         q = self.params.accel_sigma_mps2 ** 2
         cov = (kf.P[:2, :2] + dt * (kf.P[:2, 2:] + kf.P[2:, :2]) + dt * dt * kf.P[2:, 2:]
                + q * dt ** 4 / 4.0 * np.eye(2))
-        return MoverState(track_id, oid, position, kf.x[2:].copy(), cov)
+        vel_cov = kf.P[2:, 2:] + q * dt * dt * np.eye(2)
+        return MoverState(track_id, oid, position, kf.x[2:].copy(), cov, vel_cov)
 
     def states(self, t_s: float) -> list[MoverState]:
         return [self.state(track_id, t_s) for track_id in self._tracks]

@@ -18,7 +18,9 @@ from companion.core.estimator_options import EstimatorOptions, moderate
 from companion.core.geometry import move, move_velocity, place, wrap_angle
 from companion.core.lifecycle import Lifecycle, expected_visible
 from companion.core.guidance import GuidanceCommand, GuidanceParams, guide_apf, guide_cone
-from companion.core.movers import MoverParams, MoverTracker, apparent_velocity, world_measurement
+from companion.core.arc import Motion, VehicleLimits
+from companion.core.movers import (MoverParams, MoverTracker, apparent_velocity, mover_growth,
+                                   world_measurement)
 from companion.core.union import UnionParams, guide_union
 
 # An observation frame stamped at most this much after the last odometry is processed at once
@@ -56,7 +58,8 @@ class Navigator:
                  gates: AssociationGates, params: GuidanceParams, goal: np.ndarray,
                  strategy: str = "cone", union: UnionParams = UnionParams(),
                  mover_params: MoverParams = MoverParams(),
-                 options: EstimatorOptions = EstimatorOptions()) -> None:
+                 options: EstimatorOptions = EstimatorOptions(),
+                 limits: VehicleLimits | None = None) -> None:
         if strategy not in STRATEGIES:
             raise ValueError(f"unknown strategy {strategy!r}")
         self.slam = EkfSlam(start_pose, start_pose_cov, noise, gates)
@@ -72,6 +75,8 @@ class Navigator:
         self.goal = np.asarray(goal, dtype=float)
         self.strategy = strategy
         self.union = union
+        self.limits = limits            # union: choose velocities the vehicle can fly (arc.py)
+        self._velocity_now: tuple[float, float] | None = None    # speed, course: last odometry
         self._last_heading: float | None = None
         self._side = 0
         self._urgent: tuple | None = None
@@ -240,6 +245,7 @@ class Navigator:
         self.slam.predict(speed_mps, heading_change_rad, dt_s, speed_var_scale, heading_var_extra)
         self.clock_s += max(dt_s, 0.0)
         self._dr_pose = move(self._dr_pose, speed_mps, heading_change_rad, dt_s)
+        self._velocity_now = (max(speed_mps, 0.0), float(self.slam.mean[2]))
         if dt_s > 0.0:
             self._turn_rate_rad_s = abs(heading_change_rad) / dt_s
 
@@ -251,6 +257,8 @@ class Navigator:
         self.clock_s += max(dt_s, 0.0)
         self._dr_pose = move_velocity(self._dr_pose, vel_north_mps, vel_east_mps, yaw_rate_rad_s,
                                       dt_s)
+        self._velocity_now = (math.hypot(vel_north_mps, vel_east_mps),
+                              math.atan2(vel_east_mps, vel_north_mps))
         if dt_s > 0.0:
             self._turn_rate_rad_s = abs(yaw_rate_rad_s)
 
@@ -425,7 +433,8 @@ class Navigator:
                 best, best_gap = key, gap
         return best
 
-    def _demote(self, oid: int, obs: Observation, used: set[int] | None = None) -> None:
+    def _demote(self, oid: int, obs: Observation, used: set[int] | None = None,
+                velocity: tuple[np.ndarray, float] | None = None) -> None:
         """Marginalise landmark ``oid`` out of the map and start a mover track at ``obs``."""
         self._strikes.pop(oid, None)
         self._young.pop(oid, None)
@@ -437,7 +446,7 @@ class Navigator:
             used.clear()
             used.update(shifted)
         point, cov = self._world_point(obs)
-        self.movers.create(self.clock_s, point, cov, oid if oid >= 0 else None)
+        self.movers.create(self.clock_s, point, cov, oid if oid >= 0 else None, velocity)
         self.movers_detected += 1
 
     def _judge_young(self) -> list[UpdateReport]:
@@ -462,7 +471,9 @@ class Navigator:
                 speed = float(np.hypot(*velocity)) - crab
                 moving = speed > params.speed_threshold_mps and speed > params.speed_sigmas * sigma
             if moving:
-                self._demote(oid, young.last_obs)
+                # the track starts at the velocity that convicted it: a mover that leaves the
+                # view soon after is then predicted where it goes, not left standing
+                self._demote(oid, young.last_obs, velocity=(velocity, sigma))
                 detected.append(UpdateReport("mover_detected", None, None, None, oid))
         return detected
 
@@ -535,6 +546,13 @@ class Navigator:
         oid = self._guidance_keys[index]
         return ("landmark", oid if oid is not None else index)
 
+    def _motion(self, pose: np.ndarray) -> Motion | None:
+        """The vehicle's limits and its velocity now (cruising along the yaw before any odometry)."""
+        if self.limits is None:
+            return None
+        speed, course = self._velocity_now or (self.params.cruise_speed_mps, float(pose[2]))
+        return self.limits.motion(speed, course)
+
     def decide(self, t_s: float) -> tuple[GuidanceCommand, UrgencyChange | None]:
         """Guidance on the current estimate, and the urgency change it implies, if any."""
         pose = self.slam.pose
@@ -543,7 +561,9 @@ class Navigator:
             command = guide_apf(pose, self.goal, obstacles, self.params)
         elif self.strategy == "union":
             command = guide_union(pose, self.goal, obstacles, rel_covs, self.params, self.union,
-                                  self._last_heading, self._side, velocities)
+                                  self._last_heading, self._side, velocities,
+                                  self._motion(pose), mover_growth(movers, len(obstacles),
+                                                                   self.union.mover_sigmas))
             self._side = command.side
         else:
             command = guide_cone(pose, self.goal, obstacles, rel_covs, self.params, t_s, velocities)

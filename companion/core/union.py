@@ -27,6 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from companion.core.arc import MAX_GROWTH_M, Motion
 from companion.core.geometry import wrap_angle, wrap_angles
 from companion.core.guidance import (GuidanceCommand, GuidanceParams, approach_speed,
                                      inflated_radius, toward_goal)
@@ -41,6 +42,10 @@ class UnionParams:
     lookahead_s: float = 6.0          # how far ahead (in time at the commanded speed) cones count
     hysteresis: float = 0.5           # weight of |h - previous heading| against |h - goal heading|
     fov_rad: float = 0.5 * math.pi    # the camera's field of view: see turn_speed_factor
+    mover_sigmas: float = 1.0         # a mover's radius grows by this many sigma of its velocity
+    sensor_range_m: float | None = None   # velocity choice: never outrun the camera (None: off)
+    gap_margin_m: float | None = None  # velocity choice: fly through gaps whose safety circles
+                                      # leave this much between them (None: never)
 
 
 def turn_speed_factor(heading_rad: float, desired_rad: float, fov_rad: float) -> float:
@@ -128,8 +133,16 @@ def candidate_headings(goal_heading: float, reference: float, g: Geometry,
 def guide_union(pose: np.ndarray, goal: np.ndarray, obstacles: np.ndarray,
                 rel_covs: np.ndarray | None, params: GuidanceParams, union: UnionParams,
                 previous_heading_rad: float | None, side: int = 0,
-                velocities: np.ndarray | None = None) -> GuidanceCommand:
-    """Pick a speed and heading outside every relevant cone; see the module docstring."""
+                velocities: np.ndarray | None = None, motion: Motion | None = None,
+                growth_mps: np.ndarray | None = None) -> GuidanceCommand:
+    """Pick a speed and heading outside every relevant cone; see the module docstring.
+
+    With ``motion`` (the vehicle's limits and velocity now), the choice is velocity_choice's:
+    only commands whose flown path keeps every safety distance. ``growth_mps`` (n,): how fast
+    each obstacle's radius grows with time there (a mover's velocity uncertainty)."""
+    if motion is not None:
+        return _guide_flyable(pose, goal, obstacles, rel_covs, params, union,
+                              previous_heading_rad, side, velocities, motion, growth_mps)
     position = pose[:2]
     goal_distance, goal_heading = toward_goal(pose, goal)
     if goal_distance <= params.goal_radius_m:
@@ -261,3 +274,46 @@ def _choose_static(pose: np.ndarray, goal_heading: float, goal_distance: float, 
                                "avoid", nearest[4], max(nearest[3], 0.0) / max(speed, 1e-9),
                                side=((offsets[best] > 0) - (offsets[best] < 0)) or 1)
     return GuidanceCommand(0.0, yaw, "hold")
+
+
+def sensed_speed_limit(sensor_range_m: float, safety_distance_m: float,
+                       max_accel_mps2: float) -> float:
+    """The fastest speed from which the vehicle stops d short of the camera's range: an obstacle
+    that first shows up at the edge of the range is then never closer than d when stopped."""
+    return math.sqrt(2.0 * max_accel_mps2 * max(sensor_range_m - safety_distance_m, 0.0))
+
+
+def _guide_flyable(pose: np.ndarray, goal: np.ndarray, obstacles: np.ndarray,
+                   rel_covs: np.ndarray | None, params: GuidanceParams, union: UnionParams,
+                   previous_heading_rad: float | None, side: int, velocities: np.ndarray | None,
+                   motion: Motion, growth_mps: np.ndarray | None) -> GuidanceCommand:
+    from companion.core.velocity_choice import choose_velocity
+    goal_distance, goal_heading = toward_goal(pose, goal)
+    if goal_distance <= params.goal_radius_m:
+        return GuidanceCommand(0.0, pose[2], "arrived")
+    cruise = approach_speed(params, goal_distance)
+    if union.sensor_range_m is not None:
+        cruise = min(cruise, sensed_speed_limit(union.sensor_range_m, params.safety_distance_m,
+                                                motion.max_accel_mps2))
+    reference = pose[2] if previous_heading_rad is None else previous_heading_rad
+    if rel_covs is None or params.inflation_sigmas <= 0.0:
+        radii = np.full(len(obstacles), params.safety_distance_m)
+    else:
+        radii = np.array([inflated_radius(params.safety_distance_m, cov, params.inflation_sigmas)
+                          for cov in rel_covs])
+    gaps = np.hypot(*(obstacles - pose[:2]).T) - radii if len(obstacles) else np.empty(0)
+    speeds = np.zeros(len(obstacles)) if velocities is None else np.hypot(*velocities.T)
+    # what the roll-out can reach: the look-ahead at the faster of now and cruise, then a stop
+    top = max(cruise, motion.speed_mps)
+    reach = top * union.lookahead_s + top * top / (2.0 * motion.max_accel_mps2)
+    grow = np.zeros(len(obstacles)) if growth_mps is None else growth_mps
+    horizon = union.lookahead_s + top / motion.max_accel_mps2
+    near = np.flatnonzero(gaps < reach + speeds * horizon + np.minimum(grow * horizon, MAX_GROWTH_M))
+    if near.size == 0:
+        return GuidanceCommand(cruise * turn_speed_factor(pose[2], goal_heading, union.fov_rad),
+                               goal_heading, "goal")
+    moving = velocities is not None and bool(np.any(velocities[near]))
+    return choose_velocity(pose, goal_heading, goal_distance, cruise, reference, side,
+                           obstacles[near], radii[near], near, params, union,
+                           velocities[near] if moving else None, motion,
+                           None if growth_mps is None or not moving else growth_mps[near])

@@ -1,0 +1,146 @@
+"""Reachable velocities: the path a vehicle actually flies toward a (speed, heading) command.
+
+A heading that is free from where the vehicle is may not be reachable: at 15 m/s and 30 deg/s
+the turn's radius is 29 m, and the arc toward the free heading can cross a neighbour's safety
+circle. ``fly_out`` rolls every candidate command forward as the vehicle would fly it, and
+``clearance`` measures each rolled-out path against every obstacle (moving ones at their
+predicted positions, their radius growing with the track's uncertainty):
+
+- the heading turns toward the command at ``min(turn rate, lateral accel / speed)`` (a unicycle
+  has only the turn rate; a multicopter's velocity turns no faster than its acceleration allows);
+- the speed moves toward the command at the acceleration limit; the command itself is scaled by
+  the cosine of the remaining heading error and is zero beyond half the camera's field of view,
+  as the guidance does at every decision (it turns in place toward headings it cannot see);
+- after ``horizon_s`` the vehicle brakes to a stop along its heading: a command is only
+  reachable if stopping after it is too (no state from which every future collides).
+
+Pure numpy; times in seconds, positions north/east metres, headings LOCAL_NED yaw (rad).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from companion.core.geometry import wrap_angles
+
+STEP_S = 0.25                    # the roll-out's time step
+MAX_GROWTH_M = 5.0               # a mover's radius grows by at most this over a roll-out: a
+                                 # track whose velocity is barely known must not wall off the sky
+
+
+@dataclass(frozen=True)
+class VehicleLimits:
+    """The vehicle's velocity limits, from its config (SI units, radians)."""
+    max_turn_rate_rad_s: float
+    max_accel_mps2: float
+    lateral_accel_limited: bool = False      # a multicopter's velocity turns within max_accel
+
+    def motion(self, speed_mps: float, course_rad: float) -> "Motion":
+        return Motion(self.max_turn_rate_rad_s, self.max_accel_mps2, speed_mps, course_rad,
+                      self.max_accel_mps2 if self.lateral_accel_limited else None)
+
+
+@dataclass(frozen=True)
+class Motion:
+    """What limits the vehicle's velocity, and the velocity it has now."""
+    max_turn_rate_rad_s: float
+    max_accel_mps2: float
+    speed_mps: float                         # now
+    course_rad: float                        # direction of the velocity now
+    max_lateral_accel_mps2: float | None = None   # None: the unicycle (turn rate only)
+
+    def turn_rate_at(self, speed_mps: np.ndarray) -> np.ndarray:
+        """The fastest turn of the velocity's direction at each speed (rad/s)."""
+        rate = np.full(np.shape(speed_mps), self.max_turn_rate_rad_s)
+        if self.max_lateral_accel_mps2 is None:
+            return rate
+        return np.minimum(rate, self.max_lateral_accel_mps2 / np.maximum(speed_mps, 1e-3))
+
+
+@dataclass(frozen=True)
+class Rollout:
+    """Rolled-out paths of J commands: times (N,), positions (J, N, 2), speeds (J, N)."""
+    times_s: np.ndarray
+    positions: np.ndarray
+    speeds: np.ndarray
+
+
+def fly_out(start_ne_m: np.ndarray, motion: Motion, headings_rad: np.ndarray,
+            speeds_mps: np.ndarray, horizon_s: float, fov_rad: float) -> Rollout:
+    """Roll J commands (headings (J,), speeds (J,)) forward ``horizon_s``, then brake to rest."""
+    headings = np.asarray(headings_rad, dtype=float)
+    commanded = np.asarray(speeds_mps, dtype=float)
+    j = len(headings)
+    dv = motion.max_accel_mps2 * STEP_S
+    top = max(float(commanded.max(initial=0.0)), motion.speed_mps)
+    steps = int(math.ceil(horizon_s / STEP_S)) + int(math.ceil(top / max(dv, 1e-9)))
+    cruise_steps = int(math.ceil(horizon_s / STEP_S))
+    course = np.full(j, motion.course_rad)
+    speed = np.full(j, motion.speed_mps)
+    position = np.tile(np.asarray(start_ne_m, dtype=float), (j, 1))
+    positions = np.empty((j, steps, 2))
+    speeds = np.empty((j, steps))
+    for k in range(steps):
+        error = wrap_angles(headings - course)
+        if k < cruise_steps:
+            target = np.where(np.abs(error) > 0.5 * fov_rad, 0.0, commanded * np.cos(error))
+        else:
+            target = np.zeros(j)
+        new_speed = speed + np.clip(target - speed, -dv, dv)
+        mean_speed = 0.5 * (speed + new_speed)
+        limit = motion.turn_rate_at(mean_speed) * STEP_S
+        turn = np.clip(error, -limit, limit)
+        mid = course + 0.5 * turn
+        position = position + (mean_speed * STEP_S)[:, None] * np.stack([np.cos(mid), np.sin(mid)], 1)
+        course = course + turn
+        speed = new_speed
+        positions[:, k] = position
+        speeds[:, k] = speed
+    times = STEP_S * np.arange(1, steps + 1)
+    return Rollout(times, positions, speeds)
+
+
+def clearance(rollout: Rollout, obstacles: np.ndarray, radii: np.ndarray,
+              velocities: np.ndarray | None = None,
+              growth_mps: np.ndarray | None = None,
+              start_ne_m: np.ndarray | None = None) -> np.ndarray:
+    """(J,) the smallest margin of each path over every obstacle: distance minus radius (m).
+
+    obstacles (n,2) now; radii (n,) the safety distances; velocities (n,2) or None; growth_mps
+    (n,) how fast each radius grows with time (a mover's velocity uncertainty), or None.
+    Negative: the path enters that safety circle. +inf without obstacles. With ``start_ne_m``
+    (where the vehicle is), a circle it is already inside counts only what the path loses beyond
+    the present margin: a way out must not be refused for starting inside.
+    """
+    j = rollout.positions.shape[0]
+    if len(obstacles) == 0:
+        return np.full(j, np.inf)
+    t = rollout.times_s
+    centres = obstacles[None, :, :] + (np.zeros((1, 1, 2)) if velocities is None
+                                       else t[:, None, None] * velocities[None, :, :])  # (N, n, 2)
+    grown = radii[None, :] + (0.0 if growth_mps is None
+                              else np.minimum(t[:, None] * growth_mps[None, :], MAX_GROWTH_M))
+    gaps = rollout.positions[:, :, None, :] - centres[None, :, :, :]                   # (J,N,n,2)
+    margin = np.hypot(gaps[..., 0], gaps[..., 1]) - grown[None, :, :]
+    if start_ne_m is not None:
+        now = np.hypot(*(obstacles - np.asarray(start_ne_m)).T) - radii               # (n,)
+        margin = margin - np.minimum(now, 0.0)[None, None, :]
+    return margin.min(axis=(1, 2))
+
+
+def margins_by_obstacle(rollout: Rollout, obstacles: np.ndarray, radii: np.ndarray,
+                        velocities: np.ndarray | None = None,
+                        growth_mps: np.ndarray | None = None
+                        ) -> tuple[np.ndarray, np.ndarray]:
+    """For one rolled-out path (J = 1): each obstacle's smallest margin (n,) and its time (n,)."""
+    t = rollout.times_s
+    centres = obstacles[None, :, :] + (np.zeros((1, 1, 2)) if velocities is None
+                                       else t[:, None, None] * velocities[None, :, :])
+    grown = radii[None, :] + (0.0 if growth_mps is None
+                              else np.minimum(t[:, None] * growth_mps[None, :], MAX_GROWTH_M))
+    gaps = rollout.positions[0][:, None, :] - centres
+    margin = np.hypot(gaps[..., 0], gaps[..., 1]) - grown                            # (N, n)
+    worst = margin.argmin(axis=0)
+    return margin.min(axis=0), t[worst]

@@ -1,0 +1,156 @@
+"""Choose a velocity, not only a heading: the union law on paths the vehicle can fly.
+
+The union law (union.py) blocks every heading inside a relevant cone, seen from where the vehicle
+is. At speed that is not enough: the vehicle reaches a free heading along an arc of radius
+v / turn rate (29 m at 15 m/s and 30 deg/s), and the arc can cross a neighbour's circle. Here a
+command (speed, heading) is taken only if it is free of every cone *and* its rolled-out path
+(arc.py: turn and speed limits, then a stop) keeps every safety distance, movers at their
+predicted positions with a radius that grows with their velocity's uncertainty:
+
+1. speeds from cruise down to a quarter of it, fastest first; at each, the free headings scored
+   as the union law scores them (goal, hysteresis, committed side); the best reachable one wins;
+2. none: the cones are dropped, the roll-out alone decides (a quarter speed, then a stop while
+   turning): the path that keeps d, nearest the goal;
+3. none at all: brake, turning toward the heading whose path keeps the most clearance.
+
+The obstacle reported as urgent is, among those the goal heading's path would violate, the one
+whose closest approach comes first (time to closest approach ranks them).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from companion.core.arc import Motion, clearance, fly_out, margins_by_obstacle
+from companion.core.geometry import wrap_angles
+from companion.core.guidance import GuidanceCommand, GuidanceParams
+from companion.core.union import (Geometry, UnionParams, blocking, candidate_headings,
+                                  turn_speed_factor)
+
+SPEED_FRACTIONS = (1.0, 0.75, 0.5, 0.25)
+KEEP_TOLERANCE_M = 0.25    # the previous heading stays reachable down to d minus this: a choice
+                           # on the edge of reachable must not flip every decision
+GRID = np.linspace(-math.pi, math.pi, 72, endpoint=False)     # 5 degrees, beside the cone edges
+
+
+def choose_velocity(pose: np.ndarray, goal_heading: float, goal_distance: float, cruise: float,
+                    reference: float, side: int, obstacles: np.ndarray, radii: np.ndarray,
+                    near: np.ndarray, params: GuidanceParams, union: UnionParams,
+                    velocities: np.ndarray | None, motion: Motion,
+                    growth_mps: np.ndarray | None = None) -> GuidanceCommand:
+    """A speed and heading outside every cone whose path is flyable; see the module docstring.
+
+    obstacles (n,2), radii (n,), velocities (n,2) or None, growth_mps (n,) or None: the near
+    obstacles only; ``near`` (n,) their indices in the caller's list.
+    """
+    position = pose[:2]
+    yaw = float(pose[2])
+    geometry = Geometry.of(position, obstacles, radii, params.eta)
+    gates = gate_headings(position, obstacles, radii, union.gap_margin_m) \
+        if velocities is None and union.gap_margin_m is not None else np.empty(0)
+    candidates = np.concatenate([candidate_headings(goal_heading, reference, geometry,
+                                                    velocities is not None), GRID, gates])
+    candidates = wrap_angles(candidates)
+    through_gate = np.zeros(len(candidates), dtype=bool)
+    if gates.size:
+        through_gate[-gates.size:] = True
+    offset = wrap_angles(candidates - goal_heading)
+    cost = np.abs(offset) + union.hysteresis * np.abs(wrap_angles(candidates - reference))
+    if side:
+        cost = cost + np.pi * (np.sign(offset) == -side)
+
+    def reachable(indices: np.ndarray, speed: float) -> np.ndarray:
+        """Each command's worst margin (m), the previous heading's raised by the tolerance."""
+        rolled = fly_out(position, motion, candidates[indices], np.full(len(indices), speed),
+                         union.lookahead_s, union.fov_rad)
+        margin = clearance(rolled, obstacles, radii, velocities, growth_mps, position)
+        return margin + np.where(indices == 1, KEEP_TOLERANCE_M, 0.0)
+
+    def command(index: int, speed: float, mode: str) -> GuidanceCommand:
+        heading = float(candidates[index])
+        urgent, ttca = _most_urgent(position, motion, goal_heading, cruise, obstacles, radii,
+                                    velocities, growth_mps, union)
+        return GuidanceCommand(speed * turn_speed_factor(yaw, heading, union.fov_rad), heading,
+                               "goal" if index == 0 and mode == "avoid" else mode,
+                               None if urgent is None else int(near[urgent]), ttca,
+                               side=int(np.sign(offset[index])) or 1 if index else 0)
+
+    for fraction in SPEED_FRACTIONS:
+        speed = cruise * fraction
+        blocked = blocking(candidates, position, obstacles, radii, params.eta,
+                           min(max(speed, motion.speed_mps) * union.lookahead_s, goal_distance),
+                           speed, velocities, union.lookahead_s, geometry).any(axis=1)
+        # a gate's heading passes between cones by construction: its flown path alone decides
+        free = np.flatnonzero(~blocked | through_gate)
+        if free.size == 0:
+            continue
+        free = free[np.argsort(cost[free], kind="stable")]
+        if free[0] == 0 and reachable(free[:1], speed)[0] >= 0.0:
+            return command(0, speed, "avoid")
+        margin = reachable(free, speed)
+        ok = free[margin >= 0.0]
+        if ok.size:
+            return command(int(ok[0]), speed, "avoid")
+    everything = np.argsort(cost, kind="stable")
+    for speed in (0.25 * cruise, 0.0):
+        margin = reachable(everything, speed)
+        ok = everything[margin >= 0.0]
+        if ok.size:
+            return command(int(ok[0]), speed, "slow" if speed else "stop")
+    best_margin, best = -np.inf, (0, 0.0)
+    for speed in (0.0, 0.5 * cruise, cruise):
+        margin = reachable(everything, speed)
+        k = int(np.argmax(margin))
+        if margin[k] > best_margin + 0.5:       # a slower option wins ties: less to go wrong
+            best_margin, best = float(margin[k]), (int(everything[k]), speed)
+    return command(best[0], best[1], "hold")
+
+
+def _most_urgent(position: np.ndarray, motion: Motion, goal_heading: float, cruise: float,
+                 obstacles: np.ndarray, radii: np.ndarray, velocities: np.ndarray | None,
+                 growth_mps: np.ndarray | None, union: UnionParams
+                 ) -> tuple[int | None, float | None]:
+    """The obstacle the straight-to-goal path violates first, and the time of that approach."""
+    rolled = fly_out(position, motion, np.array([goal_heading]), np.array([cruise]),
+                     union.lookahead_s, union.fov_rad)
+    margin, when = margins_by_obstacle(rolled, obstacles, radii, velocities, growth_mps)
+    violated = np.flatnonzero(margin < 0.0)
+    if violated.size == 0:
+        return None, None
+    first = int(violated[np.argmin(when[violated])])
+    return first, float(when[first])
+
+
+def gate_headings(position: np.ndarray, obstacles: np.ndarray, radii: np.ndarray,
+                  margin_m: float) -> np.ndarray:
+    """Headings to the middle of every gap between two obstacles whose safety circles leave at
+    least ``margin_m`` between them, with no other circle across the gap. (k,) radians.
+
+    The eta-scaled cones close such a gap (eta * asin(d / |X|) of each side overlap), so the
+    union law goes round a wall with a gate in it; the gate's heading is taken when its flown
+    path keeps every safety distance, and wins when it is nearer the goal.
+    """
+    n = len(obstacles)
+    if n < 2:
+        return np.empty(0)
+    i, j = np.triu_indices(n, 1)
+    width = np.hypot(*(obstacles[i] - obstacles[j]).T)
+    ok = width >= radii[i] + radii[j] + margin_m
+    i, j = i[ok], j[ok]
+    if i.size == 0:
+        return np.empty(0)
+    a, b = obstacles[i], obstacles[j]                                   # (m, 2)
+    ab = b - a
+    # no third obstacle between a and b whose circle reaches the line a-b (neighbours beyond
+    # either end, as the rest of a wall, overlap its ends only: the flown path decides those)
+    t = np.einsum("mkd,md->mk", obstacles[None, :, :] - a[:, None, :], ab) \
+        / np.einsum("md,md->m", ab, ab)[:, None]                        # (m, n)
+    closest = a[:, None, :] + t[..., None] * ab[:, None, :]
+    across = (np.hypot(*(obstacles[None, :, :] - closest).transpose(2, 0, 1)) < radii[None, :]) \
+        & (t > 0.0) & (t < 1.0)
+    across[np.arange(i.size), i] = False
+    across[np.arange(i.size), j] = False
+    keep = ~across.any(axis=1)
+    middle = 0.5 * (a[keep] + b[keep]) - position
+    return np.arctan2(middle[:, 1], middle[:, 0])
