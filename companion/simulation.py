@@ -59,9 +59,18 @@ def make_navigator(scenario: Scenario, strategy: str | None = None) -> Navigator
     return Navigator(pose, pose_cov, est.slam_noise(), est.gates(), scenario.guidance_params(),
                      goal, strategy or scenario.avoidance.strategy,
                      dataclasses.replace(scenario.avoidance.union_params(scenario.sensor.fov_rad),
-                                         sensor_range_m=scenario.sensor.max_range_m),
+                                         sensor_range_m=scenario.sensor.max_range_m,
+                                         perception_delay_s=perception_delay_s(est, scenario)),
                      mover_params=est.mover_params(), options=est.options(),
                      limits=vehicle_limits(scenario))
+
+
+def perception_delay_s(est, scenario: Scenario) -> float:
+    """How long a new obstacle may stay out of the guidance: while tentative (until confirmed,
+    at worst the confirmation window's frames), unless tentatives count (estimator config)."""
+    if est.tentative_in_guidance:
+        return 0.0
+    return est.confirm_window / scenario.sensor.rate_hz
 
 
 def vehicle_limits(scenario: Scenario) -> VehicleLimits:

@@ -44,6 +44,7 @@ class UnionParams:
     fov_rad: float = 0.5 * math.pi    # the camera's field of view: see turn_speed_factor
     mover_sigmas: float = 1.0         # a mover's radius grows by this many sigma of its velocity
     sensor_range_m: float | None = None   # velocity choice: never outrun the camera (None: off)
+    perception_delay_s: float = 0.0       # ...counting the time a new obstacle stays tentative
     gap_margin_m: float | None = None  # velocity choice: fly through gaps whose safety circles
                                       # leave this much between them (None: never)
 
@@ -277,10 +278,15 @@ def _choose_static(pose: np.ndarray, goal_heading: float, goal_distance: float, 
 
 
 def sensed_speed_limit(sensor_range_m: float, safety_distance_m: float,
-                       max_accel_mps2: float) -> float:
-    """The fastest speed from which the vehicle stops d short of the camera's range: an obstacle
-    that first shows up at the edge of the range is then never closer than d when stopped."""
-    return math.sqrt(2.0 * max_accel_mps2 * max(sensor_range_m - safety_distance_m, 0.0))
+                       max_accel_mps2: float, perception_delay_s: float = 0.0) -> float:
+    """The fastest speed v from which the vehicle stops d short of the camera's range: an
+    obstacle that first shows up at the edge of the range is then never closer than d when
+    stopped. ``perception_delay_s``: how long a new obstacle may stay out of the decision (a
+    tentative landmark until confirmed), flown at v before braking starts:
+    v t + v^2 / (2 a) = range - d."""
+    a, t = max_accel_mps2, perception_delay_s
+    margin_m = max(sensor_range_m - safety_distance_m, 0.0)
+    return -a * t + math.sqrt((a * t) ** 2 + 2.0 * a * margin_m)
 
 
 def _guide_flyable(pose: np.ndarray, goal: np.ndarray, obstacles: np.ndarray,
@@ -294,7 +300,7 @@ def _guide_flyable(pose: np.ndarray, goal: np.ndarray, obstacles: np.ndarray,
     cruise = approach_speed(params, goal_distance)
     if union.sensor_range_m is not None:
         cruise = min(cruise, sensed_speed_limit(union.sensor_range_m, params.safety_distance_m,
-                                                motion.max_accel_mps2))
+                                                motion.max_accel_mps2, union.perception_delay_s))
     reference = pose[2] if previous_heading_rad is None else previous_heading_rad
     if rel_covs is None or params.inflation_sigmas <= 0.0:
         radii = np.full(len(obstacles), params.safety_distance_m)

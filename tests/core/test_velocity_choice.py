@@ -90,6 +90,14 @@ def test_never_outruns_the_camera():
     assert command.speed_mps == pytest.approx(math.sqrt(150.0))
 
 
+def test_the_camera_limit_counts_the_time_a_new_obstacle_stays_tentative():
+    """A landmark stays out of the guidance until confirmed (up to 5 frames at 5 Hz: 1 s): the
+    vehicle flies that second before it brakes, so v t + v^2 / 2a = range - d: 10 m/s here."""
+    v = sensed_speed_limit(40.0, D, 2.5, perception_delay_s=1.0)
+    assert v * 1.0 + v * v / (2 * 2.5) == pytest.approx(40.0 - D)
+    assert v == pytest.approx(10.0) and v < sensed_speed_limit(40.0, D, 2.5)
+
+
 def test_a_tracked_crossing_mover_behind_the_camera_is_avoided():
     # A mover 120 degrees off the nose (out of a 90 degree camera's view), 20 m away, crossing
     # at 4.5 m/s so as to meet the vehicle flying straight: kept in the decision by its track,
