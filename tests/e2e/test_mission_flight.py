@@ -94,4 +94,4 @@ def check_sectors_against_the_map(records, result) -> None:
             assert abs(cm - d_m * 100.0) <= 2.0
         else:
             assert cm == last.max_distance + 1
-    assert sum(cm <= last.max_distance for cm in last.distances) >= 2
+    assert sum(cm <= last.max_distance for cm in last.distances) >= 1
