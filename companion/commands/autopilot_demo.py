@@ -2,14 +2,13 @@
 from __future__ import annotations
 
 import argparse
-import asyncio
 import os
 import sys
 import tempfile
 import time
 from pathlib import Path
 
-from companion.commands.run import _first_leaf
+from companion.commands.run import run_task_tree
 from companion.errors import CompanionError
 from companion.report import print_summary, write_json
 
@@ -59,14 +58,8 @@ def run_autopilot(args: argparse.Namespace, scenario_path: Path, scenario) -> in
         workdir.mkdir(parents=True, exist_ok=True)
         tlog = Path(args.tlog).resolve() if args.tlog else workdir / "companion.tlog"
         files = AutopilotFiles(workdir, tlog)
-        try:
-            report, _, truth, checks = asyncio.run(run_autopilot_demo(
+        report, _, truth, checks = run_task_tree(run_autopilot_demo(
                 scenario_path, scenario, files, args.speedup, args.seed, setup))
-        except BaseExceptionGroup as group:
-            match, rest = group.split(CompanionError)
-            if match is None or rest is not None:
-                raise
-            raise _first_leaf(match) from None
         summary, arrays = score(report, truth, scenario, args.seed)
     wall_s = time.monotonic() - started
     result = demo_result(summary, arrays.pop("nees"), scenario)

@@ -2,14 +2,13 @@
 from __future__ import annotations
 
 import argparse
-import asyncio
 import sys
 import tempfile
 import time
 from pathlib import Path
 
 from companion.commands.autopilot_demo import add_autopilot_arguments, run_autopilot
-from companion.commands.run import _first_leaf
+from companion.commands.run import run_task_tree
 from companion.config import load_scenario
 from companion.errors import CompanionError
 from companion.paths import resolve_config
@@ -71,16 +70,10 @@ def run(args: argparse.Namespace) -> int:
         workdir = Path(args.keep or tmp)
         workdir.mkdir(parents=True, exist_ok=True)
         files = DemoFiles(workdir, tlog)
-        try:
-            report, _, truth, samples = asyncio.run(run_demo(
+        report, _, truth, samples = run_task_tree(run_demo(
                 scenario_path, scenario, files, args.speedup, args.seed, args.drop_rate,
                 Path(args.signing_key).resolve() if args.signing_key else None, args.lockstep,
                 args.view_feed))
-        except BaseExceptionGroup as group:
-            match, rest = group.split(CompanionError)
-            if match is None or rest is not None:
-                raise
-            raise _first_leaf(match) from None
         summary, arrays = score(report, truth, scenario, args.seed)
     wall_s = time.monotonic() - started
     result = demo_result(summary, arrays.pop("nees"), scenario)

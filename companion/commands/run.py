@@ -103,17 +103,24 @@ def run(args: argparse.Namespace) -> int:
     config = effective_config(args)
     view_feed = parse_address(args.view_feed, "--view-feed") if args.view_feed else None
     try:
-        asyncio.run(run_service(config, args.connect, args.tlog, args.report,
-                                lockstep=args.lockstep, view_feed=view_feed))
+        run_task_tree(run_service(config, args.connect, args.tlog, args.report,
+                                  lockstep=args.lockstep, view_feed=view_feed))
+    except CompanionError as exc:
+        print(f"companion: {exc}", file=sys.stderr)
+        return 2
+    return 0
+
+
+def run_task_tree(coro):
+    """asyncio.run(coro); a CompanionError raised inside its task tree (a link, a child process)
+    comes out as itself, to be said plainly; anything else is our bug and keeps its traceback."""
+    try:
+        return asyncio.run(coro)
     except BaseExceptionGroup as group:
-        # A CompanionError raised inside the task tree (e.g. the link) is theirs: say it plainly.
-        # Anything else is our bug and keeps its traceback.
         match, rest = group.split(CompanionError)
         if match is None or rest is not None:
             raise
-        print(f"companion: {_first_leaf(match)}", file=sys.stderr)
-        return 2
-    return 0
+        raise _first_leaf(match) from None
 
 
 def _first_leaf(group: BaseExceptionGroup) -> BaseException:
