@@ -162,15 +162,20 @@ class Service:
         elif isinstance(output, (NavigatorStarted, Arrived)) and self.report_path:
             await asyncio.to_thread(write_json_atomic, self.report_path, self.report())
 
+    def _now_us(self) -> int:
+        """The service's time: the link's wall clock, or the vehicle's in lock-step (so what the
+        STATUSTEXT limiter lets through does not depend on how fast the machine runs the loop)."""
+        return self.link.now_us() if self.clock is None else self.clock.now_us()
+
     def _send_notice(self, notice: codec.Notice) -> None:
-        if self.notices.admit(notice.text, self.link.now_us() / 1e6):
+        if self.notices.admit(notice.text, self._now_us() / 1e6):
             self.link.send(codec.statustext(notice))
         else:
             log.debug("STATUSTEXT suppressed: %s", notice.text)
 
     def _check_rates(self) -> None:
+        text = self.notices.take_suppressed_report(self._now_us() / 1e6)
         now_s = self.link.now_us() / 1e6
-        text = self.notices.take_suppressed_report(now_s)
         if text is not None:
             log.warning("%s (STATUSTEXT limit)", text)
             self.link.send(codec.statustext(codec.Notice(codec.SEVERITY_INFO, text)))
@@ -199,7 +204,7 @@ class Service:
         while True:
             await asyncio.sleep(WATCHDOG_INTERVAL_S)
             self._check_rates()
-            now_us = self.link.now_us() if self.clock is None else self.clock.now_us()
+            now_us = self._now_us()
             for output in self.pipeline.mission_tick(now_us / 1e6):
                 await self._dispatch(output)
             last = self.pipeline.heartbeat_link_s
@@ -286,7 +291,7 @@ class Service:
     async def raise_on_stop(self) -> None:
         await self.stop.wait()
         # The vehicle would coast on its last velocity until GUID_TIMEOUT: tell it to stop.
-        now_us = self.link.now_us() if self.clock is None else self.clock.now_us()
+        now_us = self._now_us()
         for setpoint in self.pipeline.stop_setpoint(now_us / 1e6):
             self.link.send(codec.set_position_target(setpoint))
             log.info("shutdown: stop setpoint sent (velocity 0, yaw %.1f deg)",

@@ -50,3 +50,39 @@ def test_no_check_before_a_window_has_passed():
     watch = StreamRateWatch({30: 10.0}, window_s=5.0, min_fraction=0.5, max_reasserts=2)
     watch.restart(0.0)
     assert watch.check(4.0) == []
+
+
+class _FakeLink:
+    """What Service touches of a MavlinkLink here: its wall clock and send."""
+
+    def __init__(self) -> None:
+        self.sent: list = []
+        self.on_sent = self.on_connect = None
+
+    def now_us(self) -> int:
+        return 0                     # the wall clock stands still: only vehicle time moves
+
+    def send(self, msg) -> None:
+        self.sent.append(msg)
+
+
+def test_in_lockstep_the_notice_limit_runs_on_vehicle_time():
+    import asyncio
+
+    from companion.adapters import codec
+    from companion.config import load_config
+    from companion.lockstep import VehicleLinkClock
+    from companion.service import Service
+
+    async def body():
+        config = load_config("config/companion.yaml")
+        clock = VehicleLinkClock(1.0, base_unix_s=0.0)
+        link = _FakeLink()
+        service = Service(config, link, None, None, clock)
+        repeat_s = config.safety.statustext_repeat_s
+        notice = codec.Notice(codec.SEVERITY_INFO, "companion: same text")
+        for k in range(3):                   # three repeat intervals apart in vehicle time
+            clock.observe(codec.LocalPosition(1, 1, k * (repeat_s + 0.5), 0.0, 0.0, 0.0, 0.0))
+            service._send_notice(notice)
+        return len(link.sent), service.notices.suppressed
+    assert asyncio.run(body()) == (3, 0)
