@@ -6,8 +6,9 @@ stays in the decision while its track is alive, with a radius growing with its v
 uncertainty, and the velocity choice keeps clear of it. Looking at it again shrinks that
 uncertainty back to a measurement's. So the nose may turn toward it, and only toward it:
 
-- only movers (the static map needs no second look), whose predicted closest approach to the
-  vehicle flying the chosen velocity comes within ``horizon_s`` and nearer than ``distance_m``;
+- only movers (the static map needs no second look), closing in: their predicted closest
+  approach to the vehicle flying the chosen velocity comes within ``horizon_s`` and nearer than
+  ``distance_m``; or already within half that distance (inside the safety circle, at 2 d);
 - only when a camera facing along the flight direction would not see it (outside half the field
   of view of that direction): judged against the flight direction, not the nose, so the choice
   does not flip once the nose has turned (the threat stays "unseen from the flight direction"
@@ -63,7 +64,9 @@ def threat_to_watch(position_ne_m: np.ndarray, course_rad: float, speed_mps: flo
     closest = np.hypot(*(rel + t_ca[:, None] * rel_vel).T)
     bearing = np.arctan2(rel[:, 1], rel[:, 0])
     unseen = np.abs(wrap_angles(bearing - course_rad)) > 0.5 * params.fov_rad
-    threat = unseen & (t_ca <= params.horizon_s) & (closest <= params.distance_m)
+    distance = np.hypot(rel[:, 0], rel[:, 1])
+    closing_in = (t_ca > 0.0) & (t_ca <= params.horizon_s) & (closest <= params.distance_m)
+    threat = unseen & (closing_in | (distance <= 0.5 * params.distance_m))
     if not threat.any():
         return None
     candidates = np.flatnonzero(threat)
