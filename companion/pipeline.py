@@ -162,7 +162,7 @@ class Pipeline:
         self.map_out = MapPublisher(config.map_out)
         self.geo_reference: codec.GeoReference | None = None   # the EKF origin (or HOME)
         self._fly_to_active = False
-        self._course_rad: float | None = None    # the last setpoint's velocity direction (SLAM)
+        self._last_shaped = None        # the last setpoint's velocity direction and nose (SLAM)
 
     # ------------------------------------------------------------ entry point
     def handle(self, t_link_s: float, event: codec.Event | None) -> list[Output]:
@@ -414,7 +414,7 @@ class Pipeline:
 
     def _reset_estimate(self) -> None:
         self.navigator = None
-        self._course_rad = None
+        self._last_shaped = None
         self.reset_counter += 1
         self._attitudes.clear()
         self._held_position = None
@@ -651,10 +651,10 @@ class Pipeline:
         if the command looks at one."""
         commanding = self.config.commanding
         slam_yaw = float(self.navigator.slam.pose[2])
-        shaped = shape_setpoint(slam_yaw, self._course_rad, command,
+        shaped = shape_setpoint(slam_yaw, self._last_shaped, command,
                                 commanding.max_turn_rate_rad_s, commanding.setpoint_period_s,
                                 commanding.max_speed_mps)
-        self._course_rad = shaped.course_rad
+        self._last_shaped = shaped
         # The autopilot's yaw drifts from the SLAM yaw; fly the SLAM heading in its frame.
         offset = self._ap_yaw_rad - slam_yaw
         heading_ap = wrap_angle(shaped.course_rad + offset)

@@ -13,7 +13,7 @@ from companion.config import load_config
 from companion.core.arc import VehicleLimits
 from companion.core.ekf_slam import Observation
 from companion.core.geometry import wrap_angle
-from companion.core.guidance import GuidanceCommand, shape_setpoint
+from companion.core.guidance import GuidanceCommand, ShapedSetpoint, shape_setpoint
 from companion.core.look_at import LookAtParams, threat_to_watch
 from companion.errors import ConfigError
 from companion.pipeline import Pipeline
@@ -75,36 +75,46 @@ def test_tentatives_in_the_decision_mean_no_perception_delay():
 def test_shaped_setpoints_never_exceed_the_turn_rate_or_the_speed_limit():
     rng = np.random.default_rng(7)
     rate, dt, top = math.radians(30.0), 0.1, 8.0
-    yaw, course = 0.0, None
+    yaw, last = 0.0, None
     for _ in range(2000):
         look = rng.uniform(-math.pi, math.pi) if rng.random() < 0.3 else None
         command = GuidanceCommand(float(rng.uniform(-5.0, 20.0)),
                                   float(rng.uniform(-math.pi, math.pi)), "avoid", yaw_rad=look)
-        shaped = shape_setpoint(yaw, course, command, rate, dt, top)
+        shaped = shape_setpoint(yaw, last, command, rate, dt, top)
         assert 0.0 <= shaped.speed_mps <= top
         assert abs(wrap_angle(shaped.yaw_rad - yaw)) <= rate * dt + 1e-9
-        reference = yaw if course is None else course
-        assert abs(wrap_angle(shaped.course_rad - reference)) <= rate * dt + 1e-9 \
-            or abs(wrap_angle(shaped.course_rad - yaw)) <= rate * dt + 1e-9
+        reference = last.course_rad if shaped.apart else yaw
+        assert abs(wrap_angle(shaped.course_rad - reference)) <= rate * dt + 1e-9
+        if last is not None:       # the velocity's direction never jumps between setpoints
+            assert abs(wrap_angle(shaped.course_rad - last.course_rad)) <= 2 * rate * dt + 1e-9 \
+                or not (shaped.apart or last.apart)
         # the vehicle follows its nose setpoint, with some lag
         yaw = wrap_angle(yaw + 0.8 * wrap_angle(shaped.yaw_rad - yaw))
-        course = shaped.course_rad
+        last = shaped
 
 
 def test_nose_and_velocity_fly_together_unless_the_command_looks_elsewhere():
     rate, dt = math.radians(30.0), 0.1
-    together = shape_setpoint(0.0, 0.0, GuidanceCommand(5.0, 1.0, "avoid"), rate, dt, 8.0)
+    straight = ShapedSetpoint(0.0, 5.0, 0.0)
+    together = shape_setpoint(0.0, straight, GuidanceCommand(5.0, 1.0, "avoid"), rate, dt, 8.0)
     assert together.yaw_rad == together.course_rad == pytest.approx(rate * dt)
+    assert not together.apart
+    # a nose lagging its setpoint (no look): the velocity still turns from the nose
+    lagging = shape_setpoint(0.5, straight, GuidanceCommand(5.0, 1.0, "avoid"), rate, dt, 8.0)
+    assert lagging.course_rad == pytest.approx(0.5 + rate * dt) and not lagging.apart
     # looking right at a mover while the velocity goes left: each turns its own way
-    apart = shape_setpoint(0.0, 0.0, GuidanceCommand(5.0, -1.0, "avoid", yaw_rad=2.0),
+    apart = shape_setpoint(0.0, straight, GuidanceCommand(5.0, -1.0, "avoid", yaw_rad=2.0),
                            rate, dt, 8.0)
     assert apart.course_rad == pytest.approx(-rate * dt)
-    assert apart.yaw_rad == pytest.approx(rate * dt)
-    # the nose far off (coming back from a look): the velocity turns from where it was going,
-    # not from the nose
-    back = shape_setpoint(2.5, 0.1, GuidanceCommand(5.0, 0.1, "goal"), rate, dt, 8.0)
-    assert back.course_rad == pytest.approx(0.1)
+    assert apart.yaw_rad == pytest.approx(rate * dt) and apart.apart
+    # the nose far off, coming back from a look: the velocity turns from where it was going,
+    # not from the nose, until the nose is back
+    looked = ShapedSetpoint(0.1, 5.0, 2.5, apart=True)
+    back = shape_setpoint(2.5, looked, GuidanceCommand(5.0, 0.1, "goal"), rate, dt, 8.0)
+    assert back.course_rad == pytest.approx(0.1) and back.apart
     assert back.yaw_rad == pytest.approx(2.5 - rate * dt)
+    home = shape_setpoint(0.12, back, GuidanceCommand(5.0, 0.1, "goal"), rate, dt, 8.0)
+    assert not home.apart and home.yaw_rad == pytest.approx(0.1)
 
 
 # ------------------------------------------------------------------ pipeline
