@@ -17,12 +17,16 @@ from companion.core.guidance import GuidanceParams
 from companion.core.movers import MoverParams
 from companion.core.estimator_options import EstimatorOptions
 from companion.core.lifecycle import LifecycleParams
+from companion.core.arc import VehicleLimits
+from companion.core.look_at import LookAtParams
 from companion.core.union import UnionParams
 from companion.errors import ConfigError
 from companion.flight_phase import FlightPhaseParams
 
 
 PLAUSIBLE_SPEED_MPS = 50.0
+PLAUSIBLE_ACCEL_MPS2 = 20.0      # 2 g sideways: far beyond any multicopter's ANGLE_MAX
+PLAUSIBLE_DELAY_S = 10.0
 UNICYCLE_AS_COPTER_YAW_SIGMA_DEG = 0.5   # Scenario.estimator_config(flown_as='multicopter')       # faster is no multicopter (the pipeline refuses such odometry)
 
 
@@ -207,6 +211,8 @@ class AvoidanceConfig:
     hysteresis: float = 0.5               # union: weight of turning away from the last choice
     camera_fov_deg: float | None = None   # union: turn in place beyond it (None: the sensor's, or 90)
     gap_margin_m: float | None = None     # union in simulate: fly gaps whose circles leave this (None: never)
+    look_at_threats: bool = False         # a multicopter's nose toward a tracked mover out of view
+                                          # (core/look_at.py); the velocity stays the choice's
 
     def __post_init__(self) -> None:
         _positive("safety_distance_m", self.safety_distance_m)
@@ -539,11 +545,21 @@ class CommandingConfig:
     setpoint_rate_hz: float = 10.0
     odometry_rate_hz: float = 5.0             # ODOMETRY (the SLAM pose) out
     max_attitude_age_s: float = 0.5           # odometry pairs LOCAL_POSITION_NED with ATTITUDE this recent
+    # What the velocity choice assumes the vehicle flies (core/arc.py): ArduCopter's GUIDED
+    # shapes a velocity setpoint with WPNAV_ACCEL (default 250 cm/s/s).
+    max_accel_mps2: float = 2.5
+    # How long a new obstacle may stay out of the decision (tentative until confirmed: the
+    # lifecycle's confirm_window frames of the camera, 5 at 5 Hz): flown before braking starts.
+    perception_delay_s: float = 1.0
 
     def __post_init__(self) -> None:
         for key in ("cruise_speed_mps", "max_speed_mps", "max_turn_rate_deg_s", "setpoint_rate_hz",
-                    "odometry_rate_hz", "max_attitude_age_s"):
+                    "odometry_rate_hz", "max_attitude_age_s", "max_accel_mps2"):
             _positive(key, getattr(self, key))
+        require(self.max_accel_mps2 <= PLAUSIBLE_ACCEL_MPS2, "max_accel_mps2", self.max_accel_mps2,
+                f"a multicopter's horizontal acceleration <= {PLAUSIBLE_ACCEL_MPS2:g} m/s/s")
+        require(0.0 <= self.perception_delay_s <= PLAUSIBLE_DELAY_S, "perception_delay_s",
+                self.perception_delay_s, f"a delay in [0, {PLAUSIBLE_DELAY_S:g}] s")
         require(self.max_speed_mps <= PLAUSIBLE_SPEED_MPS, "max_speed_mps", self.max_speed_mps,
                 f"a multicopter speed <= {PLAUSIBLE_SPEED_MPS:g} m/s")
         require(self.cruise_speed_mps <= self.max_speed_mps, "cruise_speed_mps",
@@ -717,6 +733,36 @@ class CompanionConfig:
 
     def guidance_params(self, goal_radius_m: float) -> GuidanceParams:
         return self.avoidance.guidance_params(self.commanding.cruise_speed_mps, goal_radius_m)
+
+    @property
+    def camera_fov_rad(self) -> float:
+        """The camera's field of view: avoidance.camera_fov_deg, else estimator.sensor_fov_deg,
+        else 90 degrees."""
+        fov_deg = self.avoidance.camera_fov_deg or self.estimator.sensor_fov_deg or 90.0
+        return math.radians(fov_deg)
+
+    def union_params(self) -> UnionParams:
+        """The union law's settings with the camera the service has: its field of view, its
+        range (never outrun it: estimator.sensor_max_range_m, null: no such limit) and the time a
+        new obstacle stays out of the decision."""
+        delay_s = 0.0 if self.estimator.tentative_in_guidance else self.commanding.perception_delay_s
+        return replace(self.avoidance.union_params(self.camera_fov_rad),
+                       sensor_range_m=self.estimator.sensor_max_range_m,
+                       perception_delay_s=delay_s)
+
+    def vehicle_limits(self) -> VehicleLimits:
+        """What the velocity choice assumes the vehicle can fly: ArduCopter in GUIDED, a
+        multicopter whose velocity turns within its acceleration limit."""
+        return VehicleLimits(self.commanding.max_turn_rate_rad_s, self.commanding.max_accel_mps2,
+                             lateral_accel_limited=True)
+
+    def look_at_params(self) -> LookAtParams | None:
+        """avoidance.look_at_threats: a mover counts when its closest approach comes within the
+        look-ahead and nearer than twice the safety distance."""
+        if not self.avoidance.look_at_threats:
+            return None
+        return LookAtParams(self.camera_fov_rad, self.avoidance.lookahead_s,
+                            2.0 * self.avoidance.safety_distance_m)
 
 
 def load_config(path: str | Path) -> CompanionConfig:

@@ -35,7 +35,7 @@ from companion.core.geometry import wrap_angle
 from companion.errors import CompanionError
 from companion.paths import resolve_config
 from companion.service import STREAMS
-from companion.simulation import ARRIVAL_ALLOWANCE_M, aggregate_summaries
+from companion.simulation import ARRIVAL_ALLOWANCE_M, aggregate_summaries, perception_delay_s
 
 log = logging.getLogger(__name__)
 
@@ -85,11 +85,14 @@ def demo_config(scenario: Scenario, base_path: str = "config/companion.yaml",
         base = dataclasses.replace(base, link=dataclasses.replace(
             base.link, signing_key_file=str(signing_key_file)))
     goal = scenario.world.goal
+    estimator = scenario.estimator_config(flown_as="multicopter")
     commanding = dataclasses.replace(
         base.commanding, cruise_speed_mps=scenario.vehicle.speed_mps,
         max_speed_mps=max(base.commanding.max_speed_mps, scenario.vehicle.speed_mps),
-        max_turn_rate_deg_s=scenario.vehicle.max_turn_rate_deg_s)
-    return dataclasses.replace(base, estimator=scenario.estimator_config(flown_as="multicopter"),
+        max_turn_rate_deg_s=scenario.vehicle.max_turn_rate_deg_s,
+        max_accel_mps2=scenario.vehicle.max_accel_mps2,
+        perception_delay_s=perception_delay_s(estimator, scenario))
+    return dataclasses.replace(base, estimator=estimator,
                                avoidance=scenario.avoidance, commanding=commanding,
                                goal=GoalConfig(goal.north_m, goal.east_m, goal.radius_m),
                                flight=dataclasses.replace(base.flight, takeoff_alt_m=TAKEOFF_ALT_M))

@@ -40,7 +40,7 @@ from companion.adapters import codec
 from companion.config import CompanionConfig, GoalConfig
 from companion.core.blobs import sector_observations
 from companion.core.geometry import wrap_angle
-from companion.core.guidance import limit_turn
+from companion.core.guidance import shape_setpoint
 from companion.core.navigator import Navigator
 from companion.safety.clock import ClockLimits, EpochCamera, VehicleClock
 from companion.safety.gate import SetpointGate, SetpointLimits
@@ -162,6 +162,7 @@ class Pipeline:
         self.map_out = MapPublisher(config.map_out)
         self.geo_reference: codec.GeoReference | None = None   # the EKF origin (or HOME)
         self._fly_to_active = False
+        self._last_shaped = None        # the last setpoint's velocity direction and nose (SLAM)
 
     # ------------------------------------------------------------ entry point
     def handle(self, t_link_s: float, event: codec.Event | None) -> list[Output]:
@@ -413,6 +414,7 @@ class Pipeline:
 
     def _reset_estimate(self) -> None:
         self.navigator = None
+        self._last_shaped = None
         self.reset_counter += 1
         self._attitudes.clear()
         self._held_position = None
@@ -510,8 +512,9 @@ class Pipeline:
         return Navigator(np.array([north_m, east_m, wrap_angle(yaw_rad)]), pose_cov,
                          est.slam_noise(), est.gates(), self.config.guidance_params(radius_m),
                          np.array(goal_ne),
-                         self.config.avoidance.strategy, self.config.avoidance.union_params(),
-                         est.mover_params(), est.options())
+                         self.config.avoidance.strategy, self.config.union_params(),
+                         est.mover_params(), est.options(), limits=self.config.vehicle_limits(),
+                         look_at=self.config.look_at_params())
 
     def _maybe_publish_pose(self, t_s: float, out: list[Output]) -> None:
         if self._last_pose_out_t_s is not None and t_s - self._last_pose_out_t_s \
@@ -616,7 +619,7 @@ class Pipeline:
         if self.liveness.camera_stale(t_s):
             self._safe(t_link_s, t_s, "obstacle data stale", out)
             return
-        setpoint = self._setpoint(t_s, command.speed_mps, command.heading_rad, command.mode)
+        setpoint = self._setpoint(t_s, command)
         verdict = self.gate.check(setpoint)
         if not verdict.passed:
             self._safe(t_link_s, t_s, f"setpoint refused ({verdict.reason})", out)
@@ -641,19 +644,23 @@ class Pipeline:
             self.arrival_t_s = t_s
             out.append(Arrived(t_s))
 
-    def _setpoint(self, t_s: float, speed_mps: float, heading_rad: float,
-                  mode: str) -> codec.VelocitySetpoint | None:
-        """Turn-limit the heading, rotate it into the autopilot's frame, clamp the speed."""
+    def _setpoint(self, t_s: float, command) -> codec.VelocitySetpoint | None:
+        """Turn-limit the velocity's direction and the nose (core/guidance.py shape_setpoint),
+        rotate them into the autopilot's frame, clamp the speed: the chosen speed (slowing,
+        stopping, accelerating back) along the chosen direction; the yaw toward a watched mover
+        if the command looks at one."""
         commanding = self.config.commanding
         slam_yaw = float(self.navigator.slam.pose[2])
-        ap_yaw = self._ap_yaw_rad
-        change = limit_turn(slam_yaw, heading_rad, commanding.max_turn_rate_rad_s,
-                            commanding.setpoint_period_s)
+        shaped = shape_setpoint(slam_yaw, self._last_shaped, command,
+                                commanding.max_turn_rate_rad_s, commanding.setpoint_period_s,
+                                commanding.max_speed_mps)
+        self._last_shaped = shaped
         # The autopilot's yaw drifts from the SLAM yaw; fly the SLAM heading in its frame.
-        heading_ap = wrap_angle(slam_yaw + change + (ap_yaw - slam_yaw))
-        speed = min(max(speed_mps, 0.0), commanding.max_speed_mps)
-        vn, ve = speed * math.cos(heading_ap), speed * math.sin(heading_ap)
-        return codec.VelocitySetpoint(*self.vehicle, t_s, vn, ve, heading_ap, mode)
+        offset = self._ap_yaw_rad - slam_yaw
+        heading_ap = wrap_angle(shaped.course_rad + offset)
+        vn, ve = shaped.speed_mps * math.cos(heading_ap), shaped.speed_mps * math.sin(heading_ap)
+        return codec.VelocitySetpoint(*self.vehicle, t_s, vn, ve,
+                                      wrap_angle(shaped.yaw_rad + offset), command.mode)
 
     def _safe(self, t_link_s: float, t_s: float, reason: str, out: list[Output]) -> None:
         # ERROR (and a STATUSTEXT) once per reason while commanding; before that (on the ground,

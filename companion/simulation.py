@@ -18,7 +18,8 @@ from companion.core.blobs import BlobParams, blob_observations
 from companion.core.consistency import STATES, radius_2sigma_m
 from companion.core.arc import VehicleLimits
 from companion.core.geometry import wrap_angle
-from companion.core.guidance import limit_turn
+from companion.core.guidance import limit_turn, shape_setpoint
+from companion.core.look_at import LookAtParams
 from companion.core.navigator import Navigator
 from companion.truth import TruthWorld
 
@@ -62,7 +63,16 @@ def make_navigator(scenario: Scenario, strategy: str | None = None) -> Navigator
                                          sensor_range_m=scenario.sensor.max_range_m,
                                          perception_delay_s=perception_delay_s(est, scenario)),
                      mover_params=est.mover_params(), options=est.options(),
-                     limits=vehicle_limits(scenario))
+                     limits=vehicle_limits(scenario), look_at=look_at_params(scenario))
+
+
+def look_at_params(scenario: Scenario) -> LookAtParams | None:
+    """avoidance.look_at_threats, for a multicopter only (a unicycle flies where it points)."""
+    avoidance = scenario.avoidance
+    if not avoidance.look_at_threats or scenario.vehicle.kind != "multicopter":
+        return None
+    return LookAtParams(avoidance.union_params(scenario.sensor.fov_rad).fov_rad,
+                        avoidance.lookahead_s, 2.0 * avoidance.safety_distance_m)
 
 
 def perception_delay_s(est, scenario: Scenario) -> float:
@@ -140,6 +150,7 @@ def run_once(scenario: Scenario, seed: int, strategy: str | None = None) -> RunO
         first = truth.copter_odometry(0.0)
         nav.on_velocity(0.0, first.vel_north_mps, first.vel_east_mps, first.yaw_rad,
                         first.yaw_rate_rad_s)
+    shaped = None                      # the last setpoint (copter): velocity and nose
     blobs = BlobParams(range_sigma_m=scenario.sensor.range_sigma_m,
                        bearing_sigma_rad=scenario.sensor.bearing_sigma_rad)
     nav.observe(camera_frame(truth, blobs))
@@ -157,11 +168,14 @@ def run_once(scenario: Scenario, seed: int, strategy: str | None = None) -> RunO
         gamma = limit_turn(est_heading, command.heading_rad, vehicle.max_turn_rate_rad_s, dt)
         before = truth.pose[:2].copy()
         if copter:
-            # As the service does: the turn-limited heading in the autopilot's yaw frame, flown
-            # as a velocity, the yaw commanded to it (pipeline._setpoint).
-            course = wrap_angle(reported_yaw + gamma)
-            odo = truth.step_copter(command.speed_mps * np.array([math.cos(course),
-                                                                  math.sin(course)]), course)
+            # As the service does (pipeline._setpoint): the turn-limited velocity direction and
+            # nose (the nose apart only when looking at a mover) in the autopilot's yaw frame.
+            shaped = shape_setpoint(est_heading, shaped, command, vehicle.max_turn_rate_rad_s,
+                                    dt, math.inf)
+            course = wrap_angle(shaped.course_rad + reported_yaw - est_heading)
+            nose = wrap_angle(shaped.yaw_rad + reported_yaw - est_heading)
+            odo = truth.step_copter(shaped.speed_mps * np.array([math.cos(course),
+                                                                 math.sin(course)]), nose)
             nav.on_velocity(truth.t_s, odo.vel_north_mps, odo.vel_east_mps, odo.yaw_rad,
                             odo.yaw_rate_rad_s)
             reported_yaw = odo.yaw_rad

@@ -52,6 +52,7 @@ class GuidanceCommand:
     mode: 'goal' (nothing urgent), 'avoid' (deflected by the cone), 'escape' (inside a safety
     circle), 'arrived', or 'apf'; the velocity choice also says 'slow' (only a quarter speed or
     less keeps d), 'stop' (only stopping does) and 'hold' (nothing does: the most clearance).
+    heading_rad is the velocity's direction; the nose points there too unless yaw_rad says.
     """
     speed_mps: float
     heading_rad: float
@@ -60,6 +61,8 @@ class GuidanceCommand:
     time_to_go_s: float | None = None
     threats: tuple[Threat, ...] = ()
     side: int = 0          # union guidance: +1 passing with the goal on the left, -1 right, 0 none
+    yaw_rad: float | None = None   # a multicopter's nose apart from its velocity: toward a tracked
+                                   # mover it cannot see (core/look_at.py); None: along heading_rad
 
 
 def inflated_radius(d: float, rel_cov: np.ndarray | None, sigmas: float) -> float:
@@ -180,3 +183,40 @@ def limit_turn(current_heading_rad: float, desired_heading_rad: float,
     max_change = max_turn_rate_rad_s * dt_s
     change = wrap_angle(desired_heading_rad - current_heading_rad)
     return max(-max_change, min(max_change, change))
+
+
+@dataclass(frozen=True)
+class ShapedSetpoint:
+    """One setpoint's horizontal part, in the estimate's frame: the velocity's direction and
+    speed, and the nose's yaw (the same as the direction unless the command looks elsewhere);
+    ``apart``: the nose is (still) away from the velocity's direction after a look."""
+    course_rad: float
+    speed_mps: float
+    yaw_rad: float
+    apart: bool = False
+
+
+def shape_setpoint(yaw_now_rad: float, last: ShapedSetpoint | None, command: GuidanceCommand,
+                   max_turn_rate_rad_s: float, dt_s: float, max_speed_mps: float) -> ShapedSetpoint:
+    """The command as one setpoint after ``last`` (the previous one, None at first): each of
+    velocity direction and nose turns at most ``max_turn_rate_rad_s * dt_s`` toward its target,
+    the speed within [0, max_speed_mps].
+
+    The velocity turns from the nose (where the camera looks) while the two fly together, as the
+    velocity choice's arc assumes (core/arc.py: the course turns at the turn rate). While they
+    are apart (the command looks at a threat, or the nose is still coming back from a look), it
+    turns from the last commanded direction instead: a nose pointed elsewhere must not drag the
+    velocity after it. Without looks this is the plain turn limit from the nose.
+    """
+    max_change = max_turn_rate_rad_s * dt_s
+    apart = last is not None and (
+        command.yaw_rad is not None
+        or (last.apart and abs(wrap_angle(yaw_now_rad - last.course_rad)) > max_change + 1e-9))
+    reference = last.course_rad if apart else yaw_now_rad
+    course = wrap_angle(reference + limit_turn(reference, command.heading_rad,
+                                               max_turn_rate_rad_s, dt_s))
+    target = course if command.yaw_rad is None else command.yaw_rad
+    yaw = wrap_angle(yaw_now_rad + limit_turn(yaw_now_rad, target, max_turn_rate_rad_s, dt_s))
+    speed = command.speed_mps if not math.isfinite(command.speed_mps) \
+        else min(max(command.speed_mps, 0.0), max_speed_mps)
+    return ShapedSetpoint(course, speed, yaw, apart)     # a NaN speed stays NaN: the gate refuses it

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -19,6 +19,7 @@ from companion.core.geometry import move, move_velocity, place, wrap_angle
 from companion.core.lifecycle import Lifecycle, expected_visible
 from companion.core.guidance import GuidanceCommand, GuidanceParams, guide_apf, guide_cone
 from companion.core.arc import Motion, VehicleLimits
+from companion.core.look_at import LookAtParams, threat_to_watch
 from companion.core.movers import (MoverParams, MoverTracker, apparent_velocity, mover_growth,
                                    world_measurement)
 from companion.core.union import UnionParams, guide_union
@@ -30,6 +31,8 @@ MAX_MOVER_SPEED_MPS = 3.0      # an id-less young landmark may have moved this f
 MOVED_GATE_M = 1.5             # ...plus this, between two sightings
 FRAME_TIMING_UNCERTAINTY_S = 0.05   # half an odometry period
 SAME_TIME_TOLERANCE_S = 1e-3
+LOOK_COURSE_MIN_SPEED_MPS = 0.5   # slower, the velocity's direction is noise: the last choice's
+NO_LOOK_MODES = ("arrived", "arrival_uncertain")
 MAX_PENDING_FRAMES = 8
 
 
@@ -59,7 +62,11 @@ class Navigator:
                  strategy: str = "cone", union: UnionParams = UnionParams(),
                  mover_params: MoverParams = MoverParams(),
                  options: EstimatorOptions = EstimatorOptions(),
-                 limits: VehicleLimits | None = None) -> None:
+                 limits: VehicleLimits | None = None,
+                 look_at: LookAtParams | None = None) -> None:
+        """``limits``: the union law chooses velocities the vehicle can fly (arc.py). ``look_at``
+        (a multicopter's only): its nose may turn toward a tracked mover it cannot see
+        (core/look_at.py); the command then carries ``yaw_rad``."""
         if strategy not in STRATEGIES:
             raise ValueError(f"unknown strategy {strategy!r}")
         self.slam = EkfSlam(start_pose, start_pose_cov, noise, gates)
@@ -77,6 +84,8 @@ class Navigator:
         self.union = union
         self.limits = limits            # union: choose velocities the vehicle can fly (arc.py)
         self._velocity_now: tuple[float, float] | None = None    # speed, course: last odometry
+        self.look_at = look_at
+        self.watching: int | None = None    # track id of the mover the nose points at, if any
         self._last_heading: float | None = None
         self._side = 0
         self._urgent: tuple | None = None
@@ -553,9 +562,34 @@ class Navigator:
         speed, course = self._velocity_now or (self.params.cruise_speed_mps, float(pose[2]))
         return self.limits.motion(speed, course)
 
+    def _flight_pose(self, pose: np.ndarray) -> np.ndarray:
+        """The pose guidance sees: while the nose looks at a mover, its yaw is the direction the
+        vehicle flies (the velocity's, or the last choice's when nearly still), since the choice
+        reads the yaw as where the vehicle goes and what its camera has in view."""
+        if self.watching is None:
+            return pose
+        speed, course = self._velocity_now or (0.0, float(pose[2]))
+        if speed < LOOK_COURSE_MIN_SPEED_MPS and self._last_heading is not None:
+            course = self._last_heading
+        return np.array([pose[0], pose[1], wrap_angle(course)])
+
+    def _watch(self, command: GuidanceCommand, movers: list) -> GuidanceCommand:
+        """The command with the nose toward the mover to watch, if any (look_at)."""
+        self.watching = None
+        if self.look_at is None or not movers or command.mode in NO_LOOK_MODES \
+                or command.mode.startswith("hold: "):
+            return command
+        watch = threat_to_watch(self.slam.pose[:2], command.heading_rad, command.speed_mps,
+                                np.array([m.position_ne_m for m in movers]),
+                                np.array([m.velocity_ne_mps for m in movers]), self.look_at)
+        if watch is None:
+            return command
+        self.watching = movers[watch.index].track_id
+        return replace(command, yaw_rad=watch.bearing_rad)
+
     def decide(self, t_s: float) -> tuple[GuidanceCommand, UrgencyChange | None]:
         """Guidance on the current estimate, and the urgency change it implies, if any."""
-        pose = self.slam.pose
+        pose = self._flight_pose(self.slam.pose)
         obstacles, velocities, rel_covs, movers = self.obstacles()
         if self.strategy == "apf":
             command = guide_apf(pose, self.goal, obstacles, self.params)
@@ -568,7 +602,7 @@ class Navigator:
         else:
             command = guide_cone(pose, self.goal, obstacles, rel_covs, self.params, t_s, velocities)
         self._last_heading = command.heading_rad
-        command = self._moderate(command)
+        command = self._watch(self._moderate(command), movers)
         key = self._key(command.urgent_index, movers)
         change = None
         if key != self._urgent:

@@ -9,6 +9,7 @@ import pytest
 from companion.adapters import codec
 from companion.config import GoalConfig, load_config
 from companion.core.ekf_slam import Observation
+from companion.core.guidance import GuidanceCommand
 from companion.pipeline import Arrived, NavigatorStarted, Pipeline, StreamsWanted, snapshot
 
 GUIDED, LOITER = 4, 5
@@ -242,9 +243,9 @@ def test_speed_is_clamped_to_the_configured_limit():
     feed = Feed(p)
     feed.send(hb())
     feed.step()
-    sp = p._setpoint(feed.t_s, 50.0, 0.0, "goal")
+    sp = p._setpoint(feed.t_s, GuidanceCommand(50.0, 0.0, "goal"))
     assert math.hypot(sp.vel_north_mps, sp.vel_east_mps) == pytest.approx(8.0)
-    assert not p.gate.check(p._setpoint(feed.t_s, math.nan, 0.0, "goal")).passed
+    assert not p.gate.check(p._setpoint(feed.t_s, GuidanceCommand(math.nan, 0.0, "goal"))).passed
 
 
 def test_position_waits_for_the_attitude_of_its_own_time():
