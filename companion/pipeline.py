@@ -31,7 +31,7 @@ import logging
 import math
 from array import array
 from collections import deque
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
@@ -93,6 +93,22 @@ class UrgencyRecord:
     obstacle_id: int | None
     landmark_index: int | None
     time_to_go_s: float | None
+
+
+@dataclass
+class _FrameAssembly:
+    """One camera frame's observations, gathered from the messages that carry its time."""
+    system_id: int
+    component_id: int
+    stamp_s: float                  # as the messages carry it (Unix time from an epoch camera)
+    t_s: float                      # in vehicle time
+    t_link_s: float
+    observations: list = field(default_factory=list)
+
+    def continued_by(self, event) -> bool:
+        """Another message of this frame: an obstacle report from the same camera, same time."""
+        return (isinstance(event, codec.ObstacleFrame) and event.t_s == self.stamp_s
+                and (event.system_id, event.component_id) == (self.system_id, self.component_id))
 
 
 class Pipeline:
@@ -163,6 +179,9 @@ class Pipeline:
         self.geo_reference: codec.GeoReference | None = None   # the EKF origin (or HOME)
         self._fly_to_active = False
         self._last_shaped = None        # the last setpoint's velocity direction and nose (SLAM)
+        # The camera frame being assembled: one OBSTACLE_DISTANCE_3D per obstacle, all with the
+        # frame's time, are one chance for the landmark lifecycle, not one each.
+        self._frame: _FrameAssembly | None = None
 
     # ------------------------------------------------------------ entry point
     def handle(self, t_link_s: float, event: codec.Event | None) -> list[Output]:
@@ -171,6 +190,8 @@ class Pipeline:
         self._check_heartbeat_age(t_link_s)
         if event is None:
             return out
+        if self._frame is not None and not self._frame.continued_by(event):
+            self._flush_frame(out)
         if isinstance(event, codec.Heartbeat):
             self._on_heartbeat(t_link_s, event, out)
         elif isinstance(event, mission_codec.GoalRequest):
@@ -538,6 +559,7 @@ class Pipeline:
 
     # ------------------------------------------------------------ obstacles
     def _on_obstacles(self, t_link_s: float, frame: codec.ObstacleFrame, out: list[Output]) -> None:
+        stamp_s = frame.t_s
         if frame.component_id not in (self.vehicle[1], self.config.link.camera_component_id):
             self._count("ignored_other_source")
             return
@@ -555,10 +577,9 @@ class Pipeline:
             log.debug("obstacle report refused: %s", frame.rejected)
             return
         self.liveness.on_camera_frame(frame.t_s, self.clock.latest_t_s)
-        if not frame.observations:
-            return                  # an empty frame: the camera is live and sees nothing
         if self.navigator is None:
-            self._count("obstacle_before_estimator")
+            if frame.observations:
+                self._count("obstacle_before_estimator")
             return
         observations = [o for o in frame.observations if o.range_m <= PLAUSIBLE_RANGE_M]
         if len(observations) < len(frame.observations):
@@ -567,13 +588,25 @@ class Pipeline:
                 return
         if frame.sectors is not None:        # a depth camera: its blobs, not a landmark per bin
             observations = sector_observations(frame.sectors)
-        reports = self.navigator.on_observations(frame.t_s, observations)
+        # Held until a message that is not part of this frame arrives (handle() flushes it): an
+        # empty frame too, a chance in which the landmarks in view were not seen.
+        if self._frame is None:
+            self._frame = _FrameAssembly(frame.system_id, frame.component_id, stamp_s, frame.t_s,
+                                         t_link_s)
+        self._frame.observations.extend(observations)
+
+    def _flush_frame(self, out: list[Output]) -> None:
+        """The assembled camera frame to the estimator, and a decision on what it changed."""
+        frame, self._frame = self._frame, None
+        if self.navigator is None:
+            return
+        reports = self.navigator.on_observations(frame.t_s, frame.observations)
         for report in reports:
             if report.action == "added":
                 log.info("new landmark %s (obstacle id %s)", report.landmark_index,
                          report.obstacle_id)
         if reports and self.goal_ne is not None:
-            self._decide(t_link_s, self.navigator.t_s, out)
+            self._decide(frame.t_link_s, self.navigator.t_s, out)
 
     def _in_vehicle_time(self, frame: codec.ObstacleFrame,
                          out: list[Output]) -> codec.ObstacleFrame | None:

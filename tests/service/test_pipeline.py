@@ -122,15 +122,39 @@ def test_obstacles_from_other_systems_never_reach_the_estimator():
     feed.camera([Observation(30.0, 0.1, 6)], compid=42)
     assert feed.p.navigator.slam.landmark_count == 0
     feed.camera([Observation(30.0, 0.1, 7)])
+    feed.send(hb())                            # the next message ends the camera's frame
     assert feed.p.navigator.slam.landmark_ids() == [7]
 
 
-def test_an_obstacle_report_gets_its_own_setpoint_immediately():
+def test_an_obstacle_report_gets_its_own_setpoint_with_the_next_message():
     feed = started()
     for _ in range(3):
         feed.step()
     out = feed.camera([Observation(30.0, 0.1, 7)])
+    out += feed.send(hb())       # a heartbeat: no setpoint of its own, it ends the frame
     assert len(setpoints(out)) == 1 and setpoints(out)[0].t_s == pytest.approx(feed.t_s)
+
+
+def test_one_obstacle_message_per_obstacle_is_one_frame_for_the_lifecycle():
+    """OBSTACLE_DISTANCE_3D carries one obstacle: the messages of a frame (one time) are one
+    chance for every landmark in view, so three posts in view, each seen in every frame, are all
+    confirmed and none expires (counted per message, each post missed two chances in three)."""
+    base = config()
+    cfg = dataclasses.replace(base, estimator=dataclasses.replace(
+        base.estimator, sensor_fov_deg=90.0, sensor_max_range_m=40.0))
+    feed = Feed(Pipeline(cfg, GOAL, record_track=True))
+    feed.send(hb())
+    posts_ne = [(50.0, -6.0), (52.0, 0.5), (54.0, 7.0)]
+    for k in range(30):
+        feed.step()
+        if k % 2 == 0:                         # a 5 Hz camera
+            for oid, (north, east) in enumerate(posts_ne, start=1):
+                rel_n = north - feed.north_m
+                feed.camera([Observation(math.hypot(rel_n, east), math.atan2(east, rel_n), oid)])
+    feed.send(hb())
+    lifecycle = feed.p.navigator.lifecycle
+    assert sorted(feed.p.navigator.slam.landmark_ids()) == [1, 2, 3]
+    assert lifecycle.counts["confirmed"] == 3 and lifecycle.counts["expired"] == 0
 
 
 def test_urgent_obstacle_deflects_and_reports_urgency_then_clearing():
