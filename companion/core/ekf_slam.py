@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Iterable, Sequence
+from typing import Iterable, NamedTuple, Sequence
 
 import numpy as np
 from scipy.linalg.blas import dgemm
@@ -121,6 +121,16 @@ class UpdateReport:
     obstacle_id: int | None
 
 
+class _Innovation(NamedTuple):
+    """One observation against one landmark: innovation (2,), S and S^-1 as 2x2 tuples, H P
+    (2, N) and the NIS. (A NamedTuple: a frozen dataclass costs a microsecond more to make.)"""
+    innovation: tuple[float, float]
+    s: tuple
+    s_inv: tuple
+    hp: np.ndarray
+    nis: float
+
+
 class EkfSlam:
     """EKF-SLAM with known-id or gated nearest-neighbour data association.
 
@@ -132,6 +142,7 @@ class EkfSlam:
         self.noise = noise
         self.gates = gates
         self._meas_cov = noise.measurement_cov()
+        self._meas_cov_rows = tuple(map(tuple, self._meas_cov.tolist()))
         # Exact-size, C-contiguous arrays: the update writes the covariance in place through
         # BLAS, which needs contiguous memory.
         self._mean_buf = np.array(pose, dtype=float)
@@ -293,13 +304,13 @@ class EkfSlam:
                         meas_cov: np.ndarray, gate_nis: float, action: str) -> UpdateReport:
         """Update with a measurement of vehicle states ``cols`` (k,), H restricted to them ``jac``
         (k,k); the same in-place Joseph correction as a landmark's."""
-        p_ht = self.cov[:, cols] @ jac.T                          # (N, k)
-        s = jac @ p_ht[cols] + meas_cov
+        hp = jac @ self._cov_buf[cols]                           # H P, (k, N)
+        s = hp[:, cols] @ jac.T + meas_cov
         s_inv = np.linalg.inv(s)
         nis = float(innovation @ s_inv @ innovation)
         if not nis <= gate_nis:
             return UpdateReport("outlier", None, tuple(map(float, innovation)), nis, None)
-        self._apply_gain(innovation, s, s_inv, p_ht)
+        self._joseph_rows(hp, s, s_inv, innovation)
         return UpdateReport(action, None, tuple(map(float, innovation)), nis, None)
 
     # ---------------------------------------------------------------- update
@@ -323,21 +334,23 @@ class EkfSlam:
         covariance kept exact for that suboptimal gain (Joseph form). The navigator uses it
         while a new landmark is on probation: if it turns out to move, it never touched the pose.
         """
-        z = np.array([obs.range_m, obs.bearing_rad])
-        r = obs.meas_cov_array()
+        z = (obs.range_m, obs.bearing_rad)
+        r = obs.meas_cov
         if obs.obstacle_id is not None:
             index = self._id_to_index.get(obs.obstacle_id)
             if index is None:
-                return self._add(z, obs.obstacle_id, r)
+                return self._add(np.array(z), obs.obstacle_id,
+                                 None if r is None else np.asarray(r, dtype=float))
             parts = self._innovation(z, index, r)
-            innovation, s = parts[1], parts[2]
-            nis = float(innovation @ np.linalg.solve(s, innovation))
+            nis = parts.nis
             if nis > self.gates.outlier_nis:
-                return UpdateReport("outlier", index, tuple(innovation), nis, obs.obstacle_id)
+                return UpdateReport("outlier", index, parts.innovation, nis, obs.obstacle_id)
             return self._correct(parts, index, obs.obstacle_id,
                                  landmark_only or nis > self.gates.pose_nis)
+        if r is not None:
+            r = np.asarray(r, dtype=float)
         if self.landmark_count == 0:
-            return self._add(z, None, r)
+            return self._add(np.array(z), None, r)
         nis_all, _ = self.nis_all(z, r)
         if exclude:
             nis_all[list(exclude)] = np.inf
@@ -346,7 +359,7 @@ class EkfSlam:
         if best_nis <= self.gates.accept_nis:
             return self._correct(self._innovation(z, best, r), best, None, landmark_only)
         if best_nis > self.gates.new_landmark_nis:
-            return self._add(z, None, r)
+            return self._add(np.array(z), None, r)
         return UpdateReport("ambiguous", best, None, best_nis, None)
 
     def add_landmark(self, z: np.ndarray, obstacle_id: int | None = None,
@@ -533,27 +546,48 @@ class EkfSlam:
 
     def nis_against(self, z: np.ndarray, index: int) -> tuple[float, np.ndarray]:
         """NIS and innovation of z against one landmark."""
-        _, innovation, s, _ = self._innovation(z, index)
-        return float(innovation @ np.linalg.solve(s, innovation)), innovation
+        parts = self._innovation(z, index)
+        return parts.nis, np.array(parts.innovation)
 
-    def _innovation(self, z: np.ndarray, index: int, meas_cov: np.ndarray | None = None):
-        """Innovation (2,), S (2,2), P H^T (N,2) and the five state indices it involves."""
-        mean = self._mean_buf
+    def _innovation(self, z, index: int, meas_cov=None) -> "_Innovation":
+        """Innovation, S, its inverse and H P of one range-bearing observation z of a landmark.
+
+        H touches five states only (the pose and the landmark): with a = dn/r, b = de/r,
+        c = de/r^2, e = dn/r^2 its rows are [-a, -b, 0, a, b] and [c, -e, -1, -c, e] on the
+        columns (0, 1, 2, m, m+1). H P (2, N) comes from those five rows of P (contiguous, P is
+        symmetric) in one small product; S and its inverse are 2x2, written out in scalars.
+        """
+        mean, cov = self._mean_buf, self._cov_buf
         s0 = POSE_DIM + LANDMARK_DIM * index
-        d_north = mean[s0] - mean[0]
-        d_east = mean[s0 + 1] - mean[1]
+        cols = [0, 1, 2, s0, s0 + 1]
+        north, east, yaw, d_north, d_east = mean.take(cols).tolist()
+        d_north -= north
+        d_east -= east
         range_sq = d_north * d_north + d_east * d_east
         range_m = math.sqrt(range_sq)
-        innovation = np.array([z[0] - range_m,
-                               wrap_angle(z[1] - (math.atan2(d_east, d_north) - mean[2]))])
-        jac = np.array([[-d_north / range_m, -d_east / range_m, 0.0, d_north / range_m, d_east / range_m],
-                        [d_east / range_sq, -d_north / range_sq, -1.0, -d_east / range_sq, d_north / range_sq]])
-        cols = np.array([0, 1, 2, s0, s0 + 1])
-        p_ht = self.cov[:, cols] @ jac.T                          # (N, 2)
-        s = jac @ p_ht[cols] + (self._meas_cov if meas_cov is None else meas_cov)
-        return cols, innovation, s, p_ht
+        innov_r = z[0] - range_m
+        innov_b = wrap_angle(z[1] - (math.atan2(d_east, d_north) - yaw))
+        a, b = d_north / range_m, d_east / range_m
+        c, e = d_east / range_sq, d_north / range_sq
+        jac = np.array(((-a, -b, 0.0, a, b), (c, -e, -1.0, -c, e)))
+        hp = jac @ cov.take(cols, axis=0)                             # H P, (2, N)
+        (h00, h01, h02, h03, h04), (h10, h11, h12, h13, h14) = hp.take(cols, axis=1).tolist()
+        u0, v0, u1, v1 = h03 - h00, h04 - h01, h13 - h10, h14 - h11   # S = H P H^T
+        if meas_cov is None:
+            (r00, r01), (_, r11) = self._meas_cov_rows
+        else:
+            (r00, r01), (_, r11) = meas_cov
+        s00 = a * u0 + b * v0 + r00
+        s01 = 0.5 * ((-c * u0 + e * v0 - h02) + (a * u1 + b * v1)) + r01
+        s11 = -c * u1 + e * v1 - h12 + r11
+        det = s00 * s11 - s01 * s01
+        i00, i01, i11 = s11 / det, -s01 / det, s00 / det
+        nis = (i00 * innov_r * innov_r + 2.0 * i01 * innov_r * innov_b
+               + i11 * innov_b * innov_b)
+        return _Innovation((innov_r, innov_b), ((s00, s01), (s01, s11)),
+                           ((i00, i01), (i01, i11)), hp, nis)
 
-    def _correct(self, parts: tuple, index: int, obstacle_id: int | None,
+    def _correct(self, parts: "_Innovation", index: int, obstacle_id: int | None,
                  landmark_only: bool = False) -> UpdateReport:
         """Kalman update of one landmark; Joseph form, applied in place as one rank-4 correction.
 
@@ -561,30 +595,56 @@ class EkfSlam:
                   = P - (K B^T + B K^T) with B = PHt - K S / 2,
         which stays symmetric positive semi-definite to rounding even when K is slightly off.
         """
-        cols, innovation, s, p_ht = parts
-        s_inv = np.linalg.inv(s)
-        nis = float(innovation @ s_inv @ innovation)
         if landmark_only:
-            self._correct_landmark_only(index, innovation, s, s_inv, p_ht)
-        else:
-            self._apply_gain(innovation, s, s_inv, p_ht)
-        return UpdateReport("updated", index, (float(innovation[0]), float(innovation[1])),
-                            nis, obstacle_id)
+            self._correct_landmark_only(index, np.array(parts.innovation), np.array(parts.s),
+                                        np.array(parts.s_inv), parts.hp.T)
+            return UpdateReport("updated", index, parts.innovation, parts.nis, obstacle_id)
+        # C of _joseph_rows for k = 2, in scalars (a dozen numpy calls on 2x2 cost more)
+        (s00, s01), (_, s11) = parts.s
+        (i00, i01), (_, i11) = parts.s_inv
+        v0, v1 = parts.innovation
+        m00, m01 = s00 * i00 + s01 * i01, s00 * i01 + s01 * i11              # S S^-1
+        m10, m11 = s01 * i00 + s11 * i01, s01 * i01 + s11 * i11
+        coef = np.array(((i00, i01), (i01, i11), (1.0 - 0.5 * m00, -0.5 * m01),
+                         (-0.5 * m10, 1.0 - 0.5 * m11), (i00, i01), (i01, i11),
+                         (i00 * v0 + i01 * v1, i01 * v0 + i11 * v1)))
+        self._apply_rows(coef @ parts.hp, 2)
+        return UpdateReport("updated", index, parts.innovation, parts.nis, obstacle_id)
 
     def _apply_gain(self, innovation: np.ndarray, s: np.ndarray, s_inv: np.ndarray,
                     p_ht: np.ndarray) -> None:
         """Mean and Joseph covariance update in place for any measurement of dimension k:
         innovation (k,), S and S^-1 (k,k), P H^T (N,k). One rank-2k BLAS pass."""
-        gain = p_ht @ s_inv                                        # K, (N, k)
-        self._mean_buf += gain @ innovation
-        self._mean_buf[2] = wrap_angle(self._mean_buf[2])
-        half = p_ht - 0.5 * gain @ s                               # B, (N, k)
-        left = np.concatenate((gain, half), axis=1)                # (N, 2k)
-        right = np.concatenate((half, gain), axis=1)
-        # P -= left right^T in one BLAS pass, no (N, N) temporary: P is symmetric, so its
+        self._joseph_rows(p_ht.T, s, s_inv, innovation)
+
+    def _joseph_rows(self, hp: np.ndarray, s, s_inv, innovation) -> None:
+        """The in-place mean and Joseph update from H P (k, N), S and S^-1 (k, k), innovation (k,).
+
+        K^T = S^-1 H P, B^T = (I - S S^-1 / 2) H P and the mean's step K v = (S^-1 v)^T H P are
+        rows of one product C H P, C = [S^-1; I - S S^-1/2; S^-1; (S^-1 v)^T] (3k+1, k): its
+        rows 0..2k are [K B] and rows k..3k [B K], both Fortran-ordered (N, 2k) views as dgemm
+        takes them, so the BLAS pass copies nothing.
+        """
+        s, s_inv = np.asarray(s, dtype=float), np.asarray(s_inv, dtype=float)
+        k = len(s)
+        coef = np.empty((3 * k + 1, k))
+        coef[:k] = s_inv
+        np.multiply(s @ s_inv, -0.5, out=coef[k:2 * k])
+        coef[k:2 * k].flat[::k + 1] += 1.0
+        coef[2 * k:3 * k] = s_inv
+        coef[3 * k] = s_inv @ np.asarray(innovation, dtype=float)
+        self._apply_rows(coef @ hp, k)
+
+    def _apply_rows(self, rows: np.ndarray, k: int) -> None:
+        """Apply C H P (3k+1, N) of :meth:`_joseph_rows` to the mean and the covariance."""
+        mean = self._mean_buf
+        mean += rows[3 * k]
+        mean[2] = wrap_angle(float(mean[2]))
+        # P -= [K B] [B K]^T in one BLAS pass, no (N, N) temporary: P is symmetric, so its
         # transpose is a Fortran-ordered view of the same memory, which dgemm updates in
-        # place (P^T <- P^T - right left^T). numpy's ``P -= left @ right.T`` takes two passes.
-        dgemm(-1.0, right, left, beta=1.0, c=self._cov_buf.T, trans_b=1, overwrite_c=1)
+        # place (P^T <- P^T - [B K] [K B]^T). numpy's ``P -= left @ right.T`` takes two passes.
+        dgemm(-1.0, rows[k:3 * k].T, rows[:2 * k].T, beta=1.0, c=self._cov_buf.T, trans_b=1,
+              overwrite_c=1)
 
     def _correct_landmark_only(self, index: int, innovation: np.ndarray, s: np.ndarray,
                                s_inv: np.ndarray, p_ht: np.ndarray) -> None:
