@@ -413,8 +413,8 @@ class EkfSlam:
     def _correct_batch(self, z: np.ndarray, indices: np.ndarray) -> list[tuple]:
         """Joint Joseph update of the landmarks ``indices`` (K,) measured as ``z`` (K, 2).
 
-        H is (2K, 3+2K) on the pose and the K landmarks' columns; P H^T (N, 2K) is one gather
-        and one product; S (2K, 2K). Returns (action, innovation, NIS) per observation.
+        H is (2K, 3+2K) on the pose and the K landmarks' columns; H P (2K, N) is one gather of
+        their rows and one product; S (2K, 2K). Returns (action, innovation, NIS) per observation.
         """
         mean, k_obs, n = self._mean_buf, len(indices), self._dim
         rows = np.arange(k_obs)
@@ -434,8 +434,9 @@ class EkfSlam:
         jac[:, :, POSE_DIM:].reshape(k_obs, 2, k_obs, 2)[rows, :, rows, :] = lm
         jac = jac.reshape(2 * k_obs, -1)
         cols = np.concatenate((np.arange(POSE_DIM), lm_cols))
-        p_ht = self._cov_buf[:n, cols] @ jac.T                               # (N, 2K)
-        s = jac @ p_ht[cols]
+        hp = jac @ self._cov_buf.take(cols, axis=0)                          # H P, (2K, N)
+        s = hp.take(cols, axis=1) @ jac.T
+        s = 0.5 * (s + s.T)
         s4 = s.reshape(k_obs, 2, k_obs, 2)
         s4[rows, :, rows, :] += self._meas_cov
         blocks = s4[rows, :, rows, :]                                         # (K, 2, 2)
@@ -450,22 +451,9 @@ class EkfSlam:
             return out
         if not ok.all():
             keep = np.repeat(ok, 2)
-            p_ht, s, innovation = p_ht[:, keep], s[np.ix_(keep, keep)], innovation[ok]
-        width = p_ht.shape[1]
-        # [K B] and [B K] in Fortran order, as dgemm takes them (no copies in the call)
-        left = np.empty((n, 2 * width), order="F")
-        right = np.empty((n, 2 * width), order="F")
-        gain, half = left[:, :width], right[:, :width]
-        np.matmul(p_ht, np.linalg.inv(s), out=gain)                          # K, (N, 2K)
-        self._mean_buf += gain @ innovation.ravel()
-        self._mean_buf[2] = wrap_angle(self._mean_buf[2])
-        np.matmul(gain, s, out=half)
-        half *= -0.5
-        half += p_ht                                                          # B, (N, 2K)
-        left[:, width:] = half
-        right[:, width:] = gain
-        # as in _correct: P -= [K B] [B K]^T, one pass, in place on P^T (P is symmetric)
-        dgemm(-1.0, right, left, beta=1.0, c=self._cov_buf.T, trans_b=1, overwrite_c=1)
+            hp, s, innovation = hp[keep], s[np.ix_(keep, keep)], innovation[ok]
+        # one rank-2K Joseph correction, the same single dgemm pass as one observation's
+        self._joseph_rows(hp, s, np.linalg.inv(s), innovation.ravel())
         return out
 
     def set_landmark_id(self, index: int, obstacle_id: int) -> None:
@@ -559,7 +547,7 @@ class EkfSlam:
         """
         mean, cov = self._mean_buf, self._cov_buf
         s0 = POSE_DIM + LANDMARK_DIM * index
-        cols = [0, 1, 2, s0, s0 + 1]
+        cols = np.array((0, 1, 2, s0, s0 + 1))
         north, east, yaw, d_north, d_east = mean.take(cols).tolist()
         d_north -= north
         d_east -= east
@@ -570,7 +558,7 @@ class EkfSlam:
         a, b = d_north / range_m, d_east / range_m
         c, e = d_east / range_sq, d_north / range_sq
         jac = np.array(((-a, -b, 0.0, a, b), (c, -e, -1.0, -c, e)))
-        hp = jac @ cov.take(cols, axis=0)                             # H P, (2, N)
+        hp = jac.dot(cov.take(cols, axis=0))                          # H P, (2, N)
         (h00, h01, h02, h03, h04), (h10, h11, h12, h13, h14) = hp.take(cols, axis=1).tolist()
         u0, v0, u1, v1 = h03 - h00, h04 - h01, h13 - h10, h14 - h11   # S = H P H^T
         if meas_cov is None:
@@ -608,7 +596,7 @@ class EkfSlam:
         coef = np.array(((i00, i01), (i01, i11), (1.0 - 0.5 * m00, -0.5 * m01),
                          (-0.5 * m10, 1.0 - 0.5 * m11), (i00, i01), (i01, i11),
                          (i00 * v0 + i01 * v1, i01 * v0 + i11 * v1)))
-        self._apply_rows(coef @ parts.hp, 2)
+        self._apply_rows(coef.dot(parts.hp), 2)
         return UpdateReport("updated", index, parts.innovation, parts.nis, obstacle_id)
 
     def _apply_gain(self, innovation: np.ndarray, s: np.ndarray, s_inv: np.ndarray,
@@ -639,7 +627,7 @@ class EkfSlam:
         """Apply C H P (3k+1, N) of :meth:`_joseph_rows` to the mean and the covariance."""
         mean = self._mean_buf
         mean += rows[3 * k]
-        mean[2] = wrap_angle(float(mean[2]))
+        mean[2] = wrap_angle(mean.item(2))
         # P -= [K B] [B K]^T in one BLAS pass, no (N, N) temporary: P is symmetric, so its
         # transpose is a Fortran-ordered view of the same memory, which dgemm updates in
         # place (P^T <- P^T - [B K] [K B]^T). numpy's ``P -= left @ right.T`` takes two passes.
