@@ -131,6 +131,17 @@ class _Innovation(NamedTuple):
     nis: float
 
 
+def _joseph_coef2(s00, s01, s11, i00, i01, i11, v0, v1) -> np.ndarray:
+    """C of EkfSlam._joseph_rows for a 2-dimensional measurement, in scalars (a dozen numpy
+    calls on 2x2 arrays cost more than the arithmetic): S = [[s00, s01], [s01, s11]], S^-1 the
+    same with i, innovation (v0, v1)."""
+    m00, m01 = s00 * i00 + s01 * i01, s00 * i01 + s01 * i11              # S S^-1
+    m10, m11 = s01 * i00 + s11 * i01, s01 * i01 + s11 * i11
+    return np.array(((i00, i01), (i01, i11), (1.0 - 0.5 * m00, -0.5 * m01),
+                     (-0.5 * m10, 1.0 - 0.5 * m11), (i00, i01), (i01, i11),
+                     (i00 * v0 + i01 * v1, i01 * v0 + i11 * v1)))
+
+
 class EkfSlam:
     """EKF-SLAM with known-id or gated nearest-neighbour data association.
 
@@ -278,40 +289,38 @@ class EkfSlam:
         ('yaw_reset'; the report's NIS is the one before the reset). Refusing it instead would
         lock the filter out of the yaw for good once it had drifted past the gate.
         """
-        cols = np.array([2])
-        jac = np.ones((1, 1))
-        meas_cov = np.array([[sigma_rad ** 2]])
-        innovation = np.array([wrap_angle(yaw_rad - float(self._mean_buf[2]))])
-        nis = float(innovation[0] ** 2 / (self._cov_buf[2, 2] + meas_cov[0, 0]))
+        cov = self._cov_buf
+        innovation = wrap_angle(yaw_rad - self._mean_buf.item(2))
+        var_r = sigma_rad ** 2
+        nis = innovation * innovation / (cov.item(2, 2) + var_r)
+        action = "yaw"
         if not nis <= gate_nis:
-            self._cov_buf[2, 2] += innovation[0] ** 2
-            report = self._correct_direct(cols, jac, innovation, meas_cov, math.inf, "yaw_reset")
-            return UpdateReport("yaw_reset", None, report.innovation, nis, None)
-        return self._correct_direct(cols, jac, innovation, meas_cov, gate_nis, "yaw")
+            cov[2, 2] += innovation * innovation
+            action = "yaw_reset"
+        s = cov.item(2, 2) + var_r                          # H = e_2: H P is row 2 of P
+        s_inv = 1.0 / s
+        coef = np.array(((s_inv,), (1.0 - 0.5 * s * s_inv,), (s_inv,), (s_inv * innovation,)))
+        self._apply_rows(coef.dot(cov[2:3]), 1)
+        return UpdateReport(action, None, (innovation,), nis, None)
 
     def update_position(self, north_m: float, east_m: float, sigma_m: float,
                         gate_nis: float) -> UpdateReport:
         """Correct with a horizontal position fix (the autopilot's LOCAL_POSITION_NED x, y),
         R = sigma^2 I. Refused ('outlier', state untouched) when its NIS exceeds ``gate_nis``
         (2 dof), so a glitch cannot drag the pose and the map."""
-        cols = np.array([0, 1])
-        innovation = np.array([north_m - float(self._mean_buf[0]),
-                               east_m - float(self._mean_buf[1])])
-        return self._correct_direct(cols, np.eye(2), innovation, np.eye(2) * sigma_m ** 2,
-                                    gate_nis, "position")
-
-    def _correct_direct(self, cols: np.ndarray, jac: np.ndarray, innovation: np.ndarray,
-                        meas_cov: np.ndarray, gate_nis: float, action: str) -> UpdateReport:
-        """Update with a measurement of vehicle states ``cols`` (k,), H restricted to them ``jac``
-        (k,k); the same in-place Joseph correction as a landmark's."""
-        hp = jac @ self._cov_buf[cols]                           # H P, (k, N)
-        s = hp[:, cols] @ jac.T + meas_cov
-        s_inv = np.linalg.inv(s)
-        nis = float(innovation @ s_inv @ innovation)
+        cov = self._cov_buf
+        north, east = self._mean_buf[:2].tolist()
+        v0, v1 = north_m - north, east_m - east
+        (p00, p01), (_, p11) = cov[:2, :2].tolist()          # H = [I 0]: H P is rows 0, 1
+        var_r = sigma_m ** 2
+        s00, s01, s11 = p00 + var_r, p01, p11 + var_r
+        det = s00 * s11 - s01 * s01
+        i00, i01, i11 = s11 / det, -s01 / det, s00 / det
+        nis = i00 * v0 * v0 + 2.0 * i01 * v0 * v1 + i11 * v1 * v1
         if not nis <= gate_nis:
-            return UpdateReport("outlier", None, tuple(map(float, innovation)), nis, None)
-        self._joseph_rows(hp, s, s_inv, innovation)
-        return UpdateReport(action, None, tuple(map(float, innovation)), nis, None)
+            return UpdateReport("outlier", None, (v0, v1), nis, None)
+        self._apply_rows(_joseph_coef2(s00, s01, s11, i00, i01, i11, v0, v1).dot(cov[0:2]), 2)
+        return UpdateReport("position", None, (v0, v1), nis, None)
 
     # ---------------------------------------------------------------- update
     def update_frame(self, observations: Iterable[Observation]) -> list[UpdateReport]:
@@ -587,23 +596,11 @@ class EkfSlam:
             self._correct_landmark_only(index, np.array(parts.innovation), np.array(parts.s),
                                         np.array(parts.s_inv), parts.hp.T)
             return UpdateReport("updated", index, parts.innovation, parts.nis, obstacle_id)
-        # C of _joseph_rows for k = 2, in scalars (a dozen numpy calls on 2x2 cost more)
         (s00, s01), (_, s11) = parts.s
         (i00, i01), (_, i11) = parts.s_inv
-        v0, v1 = parts.innovation
-        m00, m01 = s00 * i00 + s01 * i01, s00 * i01 + s01 * i11              # S S^-1
-        m10, m11 = s01 * i00 + s11 * i01, s01 * i01 + s11 * i11
-        coef = np.array(((i00, i01), (i01, i11), (1.0 - 0.5 * m00, -0.5 * m01),
-                         (-0.5 * m10, 1.0 - 0.5 * m11), (i00, i01), (i01, i11),
-                         (i00 * v0 + i01 * v1, i01 * v0 + i11 * v1)))
+        coef = _joseph_coef2(s00, s01, s11, i00, i01, i11, *parts.innovation)
         self._apply_rows(coef.dot(parts.hp), 2)
         return UpdateReport("updated", index, parts.innovation, parts.nis, obstacle_id)
-
-    def _apply_gain(self, innovation: np.ndarray, s: np.ndarray, s_inv: np.ndarray,
-                    p_ht: np.ndarray) -> None:
-        """Mean and Joseph covariance update in place for any measurement of dimension k:
-        innovation (k,), S and S^-1 (k,k), P H^T (N,k). One rank-2k BLAS pass."""
-        self._joseph_rows(p_ht.T, s, s_inv, innovation)
 
     def _joseph_rows(self, hp: np.ndarray, s, s_inv, innovation) -> None:
         """The in-place mean and Joseph update from H P (k, N), S and S^-1 (k, k), innovation (k,).
@@ -615,13 +612,15 @@ class EkfSlam:
         """
         s, s_inv = np.asarray(s, dtype=float), np.asarray(s_inv, dtype=float)
         k = len(s)
-        coef = np.empty((3 * k + 1, k))
+        coef = np.empty((2 * k, k))
         coef[:k] = s_inv
-        np.multiply(s @ s_inv, -0.5, out=coef[k:2 * k])
-        coef[k:2 * k].flat[::k + 1] += 1.0
-        coef[2 * k:3 * k] = s_inv
-        coef[3 * k] = s_inv @ np.asarray(innovation, dtype=float)
-        self._apply_rows(coef @ hp, k)
+        np.multiply(s @ s_inv, -0.5, out=coef[k:])
+        coef[k:].flat[::k + 1] += 1.0
+        rows = np.empty((3 * k + 1, hp.shape[1]))
+        np.dot(coef, hp, out=rows[:2 * k])
+        rows[2 * k:3 * k] = rows[:k]                                  # K again, not recomputed
+        np.dot(s_inv @ np.asarray(innovation, dtype=float), hp, out=rows[3 * k])
+        self._apply_rows(rows, k)
 
     def _apply_rows(self, rows: np.ndarray, k: int) -> None:
         """Apply C H P (3k+1, N) of :meth:`_joseph_rows` to the mean and the covariance."""
