@@ -425,37 +425,42 @@ class EkfSlam:
         H is (2K, 3+2K) on the pose and the K landmarks' columns; H P (2K, N) is one gather of
         their rows and one product; S (2K, 2K). Returns (action, innovation, NIS) per observation.
         """
-        mean, k_obs, n = self._mean_buf, len(indices), self._dim
-        rows = np.arange(k_obs)
-        lm_cols = (POSE_DIM + LANDMARK_DIM * indices[:, None] + np.arange(2)).ravel()  # (2K,)
-        d = mean[lm_cols].reshape(k_obs, 2) - mean[:2]                        # (K, 2)
-        range_sq = np.einsum("ij,ij->i", d, d)
-        range_m = np.sqrt(range_sq)
-        innovation = np.empty((k_obs, 2))
-        innovation[:, 0] = z[:, 0] - range_m
-        innovation[:, 1] = wrap_angles(z[:, 1] - (np.arctan2(d[:, 1], d[:, 0]) - mean[2]))
-        lm = np.empty((k_obs, 2, 2))                                 # H_m of each landmark
-        lm[:, 0, 0], lm[:, 0, 1] = d[:, 0] / range_m, d[:, 1] / range_m
-        lm[:, 1, 0], lm[:, 1, 1] = -d[:, 1] / range_sq, d[:, 0] / range_sq
-        jac = np.zeros((k_obs, 2, POSE_DIM + 2 * k_obs))             # H as (K, 2, 3+2K)
-        jac[:, :, :2] = -lm
-        jac[:, 1, 2] = -1.0
-        jac[:, :, POSE_DIM:].reshape(k_obs, 2, k_obs, 2)[rows, :, rows, :] = lm
-        jac = jac.reshape(2 * k_obs, -1)
-        cols = np.concatenate((np.arange(POSE_DIM), lm_cols))
-        hp = jac @ self._cov_buf.take(cols, axis=0)                          # H P, (2K, N)
-        s = hp.take(cols, axis=1) @ jac.T
-        s = 0.5 * (s + s.T)
-        s4 = s.reshape(k_obs, 2, k_obs, 2)
-        s4[rows, :, rows, :] += self._meas_cov
-        blocks = s4[rows, :, rows, :]                                         # (K, 2, 2)
-        det = blocks[:, 0, 0] * blocks[:, 1, 1] - blocks[:, 0, 1] * blocks[:, 1, 0]
-        nis = (blocks[:, 1, 1] * innovation[:, 0] ** 2
-               - (blocks[:, 0, 1] + blocks[:, 1, 0]) * innovation[:, 0] * innovation[:, 1]
-               + blocks[:, 0, 0] * innovation[:, 1] ** 2) / det
+        # Per observation in scalars (K is a camera frame's few observations): a few dozen
+        # numpy calls on (K, 2) arrays cost more than the arithmetic.
+        mean, k_obs = self._mean_buf, len(indices)
+        width = POSE_DIM + LANDMARK_DIM * k_obs
+        lm_cols = [POSE_DIM + LANDMARK_DIM * i + j for i in indices.tolist() for j in (0, 1)]
+        north, east, yaw = mean[:3].tolist()
+        landmarks = mean.take(lm_cols).tolist()
+        jac_rows, innovation = [], []
+        for k, (z_range, z_bearing) in enumerate(z.tolist()):
+            d_north, d_east = landmarks[2 * k] - north, landmarks[2 * k + 1] - east
+            range_sq = d_north * d_north + d_east * d_east
+            range_m = math.sqrt(range_sq)
+            innovation.append((z_range - range_m,
+                               wrap_angle(z_bearing - (math.atan2(d_east, d_north) - yaw))))
+            a, b = d_north / range_m, d_east / range_m
+            c, e = d_east / range_sq, d_north / range_sq
+            m = POSE_DIM + LANDMARK_DIM * k
+            row_r, row_b = [0.0] * width, [0.0] * width
+            row_r[0], row_r[1], row_r[m], row_r[m + 1] = -a, -b, a, b
+            row_b[0], row_b[1], row_b[2], row_b[m], row_b[m + 1] = c, -e, -1.0, -c, e
+            jac_rows += (row_r, row_b)
+        jac = np.array(jac_rows)                                   # H on (pose, landmarks), (2K, 3+2K)
+        innovation = np.array(innovation)                          # (K, 2)
+        cols = np.array([0, 1, 2] + lm_cols)
+        hp = jac.dot(self._cov_buf.take(cols, axis=0))             # H P, (2K, N)
+        s = hp.take(cols, axis=1).dot(jac.T)
+        s += s.T
+        s *= 0.5
+        s += self._block_meas_cov(k_obs)
+        diag, off = s.diagonal(), s.diagonal(1)[::2]               # each observation's own 2x2
+        s00, s11 = diag[0::2], diag[1::2]
+        v_r, v_b = innovation[:, 0], innovation[:, 1]
+        nis = (s11 * v_r * v_r - 2.0 * off * v_r * v_b + s00 * v_b * v_b) / (s00 * s11 - off * off)
         ok = nis <= self.gates.outlier_nis
-        out = [("updated" if good else "outlier", (float(v[0]), float(v[1])), float(q))
-               for good, v, q in zip(ok.tolist(), innovation, nis.tolist())]
+        out = [("updated" if good else "outlier", (v[0], v[1]), q)
+               for good, v, q in zip(ok.tolist(), innovation.tolist(), nis.tolist())]
         if not ok.any():
             return out
         if not ok.all():
@@ -464,6 +469,13 @@ class EkfSlam:
         # one rank-2K Joseph correction, the same single dgemm pass as one observation's
         self._joseph_rows(hp, s, np.linalg.inv(s), innovation.ravel())
         return out
+
+    def _block_meas_cov(self, k_obs: int) -> np.ndarray:
+        """R of K observations stacked, block diagonal (2K, 2K), kept per K."""
+        cache = self.__dict__.setdefault("_block_r", {})
+        if k_obs not in cache:
+            cache[k_obs] = np.kron(np.eye(k_obs), self._meas_cov)
+        return cache[k_obs]
 
     def set_landmark_id(self, index: int, obstacle_id: int) -> None:
         """Name a landmark (the navigator gives id-less ones internal negative ids)."""
