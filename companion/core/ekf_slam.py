@@ -10,9 +10,10 @@ and the multicopter's (``predict_velocity``: the autopilot's NED velocity and ya
 corrected by the autopilot's own yaw through ``update_yaw``). ``update_position`` fuses the
 autopilot's horizontal position when it can be trusted.
 
-Costs: predict touches only the vehicle rows and columns, O(n) (the multicopter's, O(1)). An update is one gather of five
-columns and one rank-4 in-place correction of the covariance (Joseph form), O(n^2) with a single
-pass over the matrix. filterpy's ExtendedKalmanFilter is not used for either: its predict forms
+Costs: predict touches only the vehicle rows and columns, O(n) (the multicopter's, O(1)). An update
+is one gather of the five rows of P its H touches (contiguous, P is symmetric), 2x2 algebra in
+scalars, one small product for K, B and the mean's step, and one rank-4 in-place correction of the
+covariance (Joseph form), O(n^2) with a single BLAS pass over the matrix (_joseph_rows). filterpy's ExtendedKalmanFilter is not used for either: its predict forms
 F P F^T densely (O(n^3)) and its update builds the dense (N, N) I - K H product. Nor is
 filterpy.stats.mahalanobis, which inverts one S per call: association here scores every landmark
 at once with closed-form 2x2 inverses (``nis_all``). filterpy does serve where it fits: the
