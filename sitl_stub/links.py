@@ -205,27 +205,8 @@ class LinkHub:
         if not items:
             return
         delivered = self.on_delivered
-        for name, (client, writer) in list(self._tcp_clients.items()):
-            if writer.is_closing() or only not in (None, name):
-                continue
-            chunks, msgs = [], []
-            for comp, msg in items:
-                data = client.encode(comp, msg)
-                if self._drop():
-                    self._n["dropped_out"] += 1
-                    continue
-                chunks.append(data)
-                msgs.append(msg)
-            if not chunks:
-                continue
-            if writer.transport.get_write_buffer_size() > MAX_TCP_BACKLOG_BYTES:
-                self._n["backlog_dropped"] += len(chunks)
-                continue
-            writer.write(b"".join(chunks))
-            self._n["sent"] += len(chunks)
-            if delivered is not None:
-                for msg in msgs:
-                    delivered(name, msg)
+        # UDP first: a lock-step companion (UDP in the demo and the tests) starts on its
+        # sample while the stub is still encoding for the ground stations.
         if self._udp_transport is not None:
             for addr, client in list(self._udp_clients.items()):
                 if only not in (None, client.name):
@@ -249,6 +230,27 @@ class LinkHub:
                         delivered(client.name, msg)
                 if chunks:
                     self._udp_transport.sendto(b"".join(chunks), addr)
+        for name, (client, writer) in list(self._tcp_clients.items()):
+            if writer.is_closing() or only not in (None, name):
+                continue
+            chunks, msgs = [], []
+            for comp, msg in items:
+                data = client.encode(comp, msg)
+                if self._drop():
+                    self._n["dropped_out"] += 1
+                    continue
+                chunks.append(data)
+                msgs.append(msg)
+            if not chunks:
+                continue
+            if writer.transport.get_write_buffer_size() > MAX_TCP_BACKLOG_BYTES:
+                self._n["backlog_dropped"] += len(chunks)
+                continue
+            writer.write(b"".join(chunks))
+            self._n["sent"] += len(chunks)
+            if delivered is not None:
+                for msg in msgs:
+                    delivered(name, msg)
 
     # ------------------------------------------------------------------ receiving
     def _drop(self) -> bool:
