@@ -59,11 +59,10 @@ def measure(landmarks: int, reps: int) -> dict:
         return lambda: slam.update(obs)
 
     predict_us = median_us(lambda: slam.predict(1.0, 0.001, 0.1), reps * 4)
-    update_us = median_prepared_us(prepared_update, reps)      # drawing the report: untimed
-
-    floor_us = floor_of(slam, 1, reps, rng)
+    # the update and its floor in alternating blocks, so a change of the machine's load
+    # while they run weighs on both (drawing the observation: untimed)
+    update_us, floor_us = paired_us(prepared_update, floor_call(slam, 1, rng), reps * 5)
     k = min(FRAME_OBSERVATIONS, landmarks)
-    frame_floor_us = floor_of(slam, k, reps, rng)
 
     def frame(batched: bool):
         ids = rng.choice(landmarks, size=k, replace=False)
@@ -75,7 +74,8 @@ def measure(landmarks: int, reps: int) -> dict:
             slam.update_frame(observations)
 
     frame_sequential_us = median_prepared_us(lambda: frame(False), reps)
-    frame_batch_us = median_prepared_us(lambda: frame(True), reps)
+    frame_batch_us, frame_floor_us = paired_us(lambda: frame(True), floor_call(slam, k, rng),
+                                               reps * 2)
 
     dense = DenseEkfSlam(slam.pose, slam.pose_cov, NOISE.speed_sigma_mps,
                          NOISE.heading_change_sigma_rad, NOISE.reference_dt_s,
@@ -101,20 +101,44 @@ def measure(landmarks: int, reps: int) -> dict:
             "frame_floor_us": frame_floor_us}
 
 
-def floor_of(slam: EkfSlam, observations: int, reps: int, rng) -> float:
+def floor_call(slam: EkfSlam, observations: int, rng):
     """The update's own BLAS call alone, for a rank-2K correction (K observations), on a copy
     of the filter's covariance (same size, same C layout, updated in place through its
-    transpose as _correct does). Signs alternate so the values stay bounded."""
+    transpose as EkfSlam._apply_rows does), with Fortran-ordered (N, 4K) operands as the
+    update passes them (C-ordered ones would make dgemm copy them: a slower, false floor).
+    Signs alternate so the values stay bounded."""
     cov = slam.cov.copy()
     n, width = cov.shape[0], 4 * observations
-    left = rng.normal(size=(n, width)) * 1e-3
-    right = rng.normal(size=(n, width)) * 1e-3
+    left = np.asfortranarray(rng.normal(size=(n, width)) * 1e-3)
+    right = np.asfortranarray(rng.normal(size=(n, width)) * 1e-3)
     sign = [1.0]
 
     def call() -> None:
         sign[0] = -sign[0]
         dgemm(sign[0], right, left, beta=1.0, c=cov.T, trans_b=1, overwrite_c=1)
-    return median_us(call, reps)
+    return call
+
+
+def floor_of(slam: EkfSlam, observations: int, reps: int, rng) -> float:
+    """Median of :func:`floor_call` alone."""
+    return median_us(floor_call(slam, observations, rng), reps)
+
+
+def paired_us(prepare, floor, reps: int, blocks: int = 10) -> tuple[float, float]:
+    """Medians of ``prepare()()`` (preparing untimed) and of ``floor()``, timed in alternating
+    blocks of reps / blocks each."""
+    times, floor_times = [], []
+    for _ in range(blocks):
+        for _ in range(max(1, reps // blocks)):
+            fn = prepare()
+            start = time.perf_counter()
+            fn()
+            times.append(time.perf_counter() - start)
+        for _ in range(max(1, reps // blocks)):
+            start = time.perf_counter()
+            floor()
+            floor_times.append(time.perf_counter() - start)
+    return float(np.median(times) * 1e6), float(np.median(floor_times) * 1e6)
 
 
 def median_prepared_us(prepare, reps: int) -> float:

@@ -21,6 +21,7 @@ to the pipeline and the tlog, and our heartbeat schedule, come from the vehicle'
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import json
 import logging
 import math
@@ -114,7 +115,7 @@ class Service:
 
     # ------------------------------------------------------------ tasks
     async def estimate(self) -> None:
-        link, pipeline = self.link, self.pipeline
+        link = self.link
         # Stop taking messages once shutdown is asked: the stop setpoint follows the last message
         # handled (and recorded), as replay reproduces it. (inbox.get() does not yield while the
         # inbox holds messages, so the TaskGroup's cancellation alone could come late.)
@@ -122,23 +123,31 @@ class Service:
             received = await link.inbox.get()
             if self.stop.is_set():
                 break
-            event = codec.decode(received.msg)
-            t_us = received.t_us if self.clock is None else self.clock.observe(event)
-            if self.tlog is not None:
-                self.tlog.write(t_us, bytes(received.msg.get_msgbuf()))
-            if self.clock is not None and self.clock.heartbeat_due():
-                link.send(codec.heartbeat())
-            if isinstance(event, codec.CommandAck) and pipeline.vehicle == (
-                    event.system_id, event.component_id) and not self.acks.full():
-                self.acks.put_nowait(event)
-            elif isinstance(event, codec.LocalPosition):
-                self._odometry_seen.set()
-            if isinstance(event, (codec.Attitude, codec.LocalPosition)) and pipeline.vehicle == (
-                    event.system_id, event.component_id):
-                self.rates.on_message(codec.MSG_ID_ATTITUDE if isinstance(event, codec.Attitude)
-                                      else codec.MSG_ID_LOCAL_POSITION_NED)
-            for output in pipeline.handle(t_us / 1e6, event):
-                await self._dispatch(output)
+            # Lock-step: what one message makes us send (setpoint, then ODOMETRY, the stub's
+            # sign to step) goes out together, one wake-up of the stub (companion/lockstep.py).
+            with link.coalesced() if self.clock is not None else contextlib.nullcontext():
+                await self._handle(received)
+
+    async def _handle(self, received) -> None:
+        """One received message: stamp, record, through the pipeline, its outputs out."""
+        link, pipeline = self.link, self.pipeline
+        event = codec.decode(received.msg)
+        t_us = received.t_us if self.clock is None else self.clock.observe(event)
+        if self.tlog is not None:
+            self.tlog.write(t_us, bytes(received.msg.get_msgbuf()))
+        if self.clock is not None and self.clock.heartbeat_due():
+            link.send(codec.heartbeat())
+        if isinstance(event, codec.CommandAck) and pipeline.vehicle == (
+                event.system_id, event.component_id) and not self.acks.full():
+            self.acks.put_nowait(event)
+        elif isinstance(event, codec.LocalPosition):
+            self._odometry_seen.set()
+        if isinstance(event, (codec.Attitude, codec.LocalPosition)) and pipeline.vehicle == (
+                event.system_id, event.component_id):
+            self.rates.on_message(codec.MSG_ID_ATTITUDE if isinstance(event, codec.Attitude)
+                                  else codec.MSG_ID_LOCAL_POSITION_NED)
+        for output in pipeline.handle(t_us / 1e6, event):
+            await self._dispatch(output)
 
     async def _dispatch(self, output) -> None:
         link = self.link

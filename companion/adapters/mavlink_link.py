@@ -25,7 +25,7 @@ import asyncio
 import logging
 import os
 import time
-from contextlib import asynccontextmanager
+from contextlib import asynccontextmanager, contextmanager
 from dataclasses import dataclass
 from typing import AsyncIterator, Callable
 
@@ -35,6 +35,7 @@ from companion.errors import LinkError
 log = logging.getLogger(__name__)
 
 MAX_TCP_WRITE_BUFFER = 64 * 1024
+MAX_DATAGRAM_BYTES = 1400     # held messages share datagrams up to this (one Ethernet MTU)
 
 
 @dataclass(frozen=True)
@@ -102,24 +103,59 @@ class MavlinkLink:
         self._counts = dict(received=0, sent=0, dropped_inbound=0, dropped_outbound=0, connects=0,
                             unparsed_datagrams=0)
         self._closers: list[Callable[[], None]] = []
+        self._held: list[tuple[int, bytes]] | None = None      # inside coalesced(): (t_us, data)
 
     # ---------------------------------------------------------------- API
     def now_us(self) -> int:
         return self._base_us + int(round((self._loop.time() - self._base_loop_s) * 1e6))
 
     def send(self, msg) -> bytes | None:
-        """Pack and send one message now (never blocks). Returns the bytes, or None if dropped."""
+        """Pack and send one message now (never blocks). Returns the bytes, or None if dropped.
+        Inside :meth:`coalesced`, the message is held and goes out when the block ends."""
         data = self.encoder.encode(msg)
         # Stamped as it is handed to the transport: on loopback, sendto() returns only after the
         # kernel has delivered the datagram and woken the receiver (tens of us later).
         t_us = self.now_us()
-        if not self._send_bytes(data):
-            self._counts["dropped_outbound"] += 1
-            return None
-        self._counts["sent"] += 1
+        if self._held is not None:
+            self._held.append((t_us, data))
+            return data
+        return data if self._send_now([(t_us, data)]) else None
+
+    @contextmanager
+    def coalesced(self):
+        """Messages sent inside the block go out at its end, in order, in as few writes (UDP:
+        datagrams of whole packets, up to MAX_DATAGRAM_BYTES) as fit: a lock-step answer (a
+        setpoint, then the ODOMETRY) wakes the peer once instead of once per message."""
+        if self._held is not None:
+            yield
+            return
+        self._held = []
+        try:
+            yield
+        finally:
+            held, self._held = self._held, None
+            chunk: list[tuple[int, bytes]] = []
+            size = 0
+            for item in held:
+                if chunk and size + len(item[1]) > MAX_DATAGRAM_BYTES:
+                    self._send_now(chunk)
+                    chunk, size = [], 0
+                chunk.append(item)
+                size += len(item[1])
+            if chunk:
+                self._send_now(chunk)
+
+    def _send_now(self, items: list[tuple[int, bytes]]) -> bool:
+        """One write of the packets ``items`` [(t_us, data)]; counted and recorded per packet."""
+        if not self._send_bytes(items[0][1] if len(items) == 1 else
+                                b"".join(data for _, data in items)):
+            self._counts["dropped_outbound"] += len(items)
+            return False
+        self._counts["sent"] += len(items)
         if self.on_sent is not None:
-            self.on_sent(t_us, data)
-        return data
+            for t_us, data in items:
+                self.on_sent(t_us, data)
+        return True
 
     def statistics(self) -> LinkStatistics:
         return LinkStatistics(bad_packets=self._parser.bad_packets,

@@ -10,9 +10,10 @@ and the multicopter's (``predict_velocity``: the autopilot's NED velocity and ya
 corrected by the autopilot's own yaw through ``update_yaw``). ``update_position`` fuses the
 autopilot's horizontal position when it can be trusted.
 
-Costs: predict touches only the vehicle rows and columns, O(n) (the multicopter's, O(1)). An update is one gather of five
-columns and one rank-4 in-place correction of the covariance (Joseph form), O(n^2) with a single
-pass over the matrix. filterpy's ExtendedKalmanFilter is not used for either: its predict forms
+Costs: predict touches only the vehicle rows and columns, O(n) (the multicopter's, O(1)). An update
+is one gather of the five rows of P its H touches (contiguous, P is symmetric), 2x2 algebra in
+scalars, one small product for K, B and the mean's step, and one rank-4 in-place correction of the
+covariance (Joseph form), O(n^2) with a single BLAS pass over the matrix (_joseph_rows). filterpy's ExtendedKalmanFilter is not used for either: its predict forms
 F P F^T densely (O(n^3)) and its update builds the dense (N, N) I - K H product. Nor is
 filterpy.stats.mahalanobis, which inverts one S per call: association here scores every landmark
 at once with closed-form 2x2 inverses (``nis_all``). filterpy does serve where it fits: the
@@ -23,7 +24,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Iterable, Sequence
+from typing import Iterable, NamedTuple, Sequence
 
 import numpy as np
 from scipy.linalg.blas import dgemm
@@ -121,6 +122,27 @@ class UpdateReport:
     obstacle_id: int | None
 
 
+class _Innovation(NamedTuple):
+    """One observation against one landmark: innovation (2,), S and S^-1 as 2x2 tuples, H P
+    (2, N) and the NIS. (A NamedTuple: a frozen dataclass costs a microsecond more to make.)"""
+    innovation: tuple[float, float]
+    s: tuple
+    s_inv: tuple
+    hp: np.ndarray
+    nis: float
+
+
+def _joseph_coef2(s00, s01, s11, i00, i01, i11, v0, v1) -> np.ndarray:
+    """C of EkfSlam._joseph_rows for a 2-dimensional measurement, in scalars (a dozen numpy
+    calls on 2x2 arrays cost more than the arithmetic): S = [[s00, s01], [s01, s11]], S^-1 the
+    same with i, innovation (v0, v1)."""
+    m00, m01 = s00 * i00 + s01 * i01, s00 * i01 + s01 * i11              # S S^-1
+    m10, m11 = s01 * i00 + s11 * i01, s01 * i01 + s11 * i11
+    return np.array(((i00, i01), (i01, i11), (1.0 - 0.5 * m00, -0.5 * m01),
+                     (-0.5 * m10, 1.0 - 0.5 * m11), (i00, i01), (i01, i11),
+                     (i00 * v0 + i01 * v1, i01 * v0 + i11 * v1)))
+
+
 class EkfSlam:
     """EKF-SLAM with known-id or gated nearest-neighbour data association.
 
@@ -132,6 +154,7 @@ class EkfSlam:
         self.noise = noise
         self.gates = gates
         self._meas_cov = noise.measurement_cov()
+        self._meas_cov_rows = tuple(map(tuple, self._meas_cov.tolist()))
         # Exact-size, C-contiguous arrays: the update writes the covariance in place through
         # BLAS, which needs contiguous memory.
         self._mean_buf = np.array(pose, dtype=float)
@@ -267,40 +290,38 @@ class EkfSlam:
         ('yaw_reset'; the report's NIS is the one before the reset). Refusing it instead would
         lock the filter out of the yaw for good once it had drifted past the gate.
         """
-        cols = np.array([2])
-        jac = np.ones((1, 1))
-        meas_cov = np.array([[sigma_rad ** 2]])
-        innovation = np.array([wrap_angle(yaw_rad - float(self._mean_buf[2]))])
-        nis = float(innovation[0] ** 2 / (self._cov_buf[2, 2] + meas_cov[0, 0]))
+        cov = self._cov_buf
+        innovation = wrap_angle(yaw_rad - self._mean_buf.item(2))
+        var_r = sigma_rad ** 2
+        nis = innovation * innovation / (cov.item(2, 2) + var_r)
+        action = "yaw"
         if not nis <= gate_nis:
-            self._cov_buf[2, 2] += innovation[0] ** 2
-            report = self._correct_direct(cols, jac, innovation, meas_cov, math.inf, "yaw_reset")
-            return UpdateReport("yaw_reset", None, report.innovation, nis, None)
-        return self._correct_direct(cols, jac, innovation, meas_cov, gate_nis, "yaw")
+            cov[2, 2] += innovation * innovation
+            action = "yaw_reset"
+        s = cov.item(2, 2) + var_r                          # H = e_2: H P is row 2 of P
+        s_inv = 1.0 / s
+        coef = np.array(((s_inv,), (1.0 - 0.5 * s * s_inv,), (s_inv,), (s_inv * innovation,)))
+        self._apply_rows(coef.dot(cov[2:3]), 1)
+        return UpdateReport(action, None, (innovation,), nis, None)
 
     def update_position(self, north_m: float, east_m: float, sigma_m: float,
                         gate_nis: float) -> UpdateReport:
         """Correct with a horizontal position fix (the autopilot's LOCAL_POSITION_NED x, y),
         R = sigma^2 I. Refused ('outlier', state untouched) when its NIS exceeds ``gate_nis``
         (2 dof), so a glitch cannot drag the pose and the map."""
-        cols = np.array([0, 1])
-        innovation = np.array([north_m - float(self._mean_buf[0]),
-                               east_m - float(self._mean_buf[1])])
-        return self._correct_direct(cols, np.eye(2), innovation, np.eye(2) * sigma_m ** 2,
-                                    gate_nis, "position")
-
-    def _correct_direct(self, cols: np.ndarray, jac: np.ndarray, innovation: np.ndarray,
-                        meas_cov: np.ndarray, gate_nis: float, action: str) -> UpdateReport:
-        """Update with a measurement of vehicle states ``cols`` (k,), H restricted to them ``jac``
-        (k,k); the same in-place Joseph correction as a landmark's."""
-        p_ht = self.cov[:, cols] @ jac.T                          # (N, k)
-        s = jac @ p_ht[cols] + meas_cov
-        s_inv = np.linalg.inv(s)
-        nis = float(innovation @ s_inv @ innovation)
+        cov = self._cov_buf
+        north, east = self._mean_buf[:2].tolist()
+        v0, v1 = north_m - north, east_m - east
+        (p00, p01), (_, p11) = cov[:2, :2].tolist()          # H = [I 0]: H P is rows 0, 1
+        var_r = sigma_m ** 2
+        s00, s01, s11 = p00 + var_r, p01, p11 + var_r
+        det = s00 * s11 - s01 * s01
+        i00, i01, i11 = s11 / det, -s01 / det, s00 / det
+        nis = i00 * v0 * v0 + 2.0 * i01 * v0 * v1 + i11 * v1 * v1
         if not nis <= gate_nis:
-            return UpdateReport("outlier", None, tuple(map(float, innovation)), nis, None)
-        self._apply_gain(innovation, s, s_inv, p_ht)
-        return UpdateReport(action, None, tuple(map(float, innovation)), nis, None)
+            return UpdateReport("outlier", None, (v0, v1), nis, None)
+        self._apply_rows(_joseph_coef2(s00, s01, s11, i00, i01, i11, v0, v1).dot(cov[0:2]), 2)
+        return UpdateReport("position", None, (v0, v1), nis, None)
 
     # ---------------------------------------------------------------- update
     def update_frame(self, observations: Iterable[Observation]) -> list[UpdateReport]:
@@ -323,21 +344,23 @@ class EkfSlam:
         covariance kept exact for that suboptimal gain (Joseph form). The navigator uses it
         while a new landmark is on probation: if it turns out to move, it never touched the pose.
         """
-        z = np.array([obs.range_m, obs.bearing_rad])
-        r = obs.meas_cov_array()
+        z = (obs.range_m, obs.bearing_rad)
+        r = obs.meas_cov
         if obs.obstacle_id is not None:
             index = self._id_to_index.get(obs.obstacle_id)
             if index is None:
-                return self._add(z, obs.obstacle_id, r)
+                return self._add(np.array(z), obs.obstacle_id,
+                                 None if r is None else np.asarray(r, dtype=float))
             parts = self._innovation(z, index, r)
-            innovation, s = parts[1], parts[2]
-            nis = float(innovation @ np.linalg.solve(s, innovation))
+            nis = parts.nis
             if nis > self.gates.outlier_nis:
-                return UpdateReport("outlier", index, tuple(innovation), nis, obs.obstacle_id)
+                return UpdateReport("outlier", index, parts.innovation, nis, obs.obstacle_id)
             return self._correct(parts, index, obs.obstacle_id,
                                  landmark_only or nis > self.gates.pose_nis)
+        if r is not None:
+            r = np.asarray(r, dtype=float)
         if self.landmark_count == 0:
-            return self._add(z, None, r)
+            return self._add(np.array(z), None, r)
         nis_all, _ = self.nis_all(z, r)
         if exclude:
             nis_all[list(exclude)] = np.inf
@@ -346,7 +369,7 @@ class EkfSlam:
         if best_nis <= self.gates.accept_nis:
             return self._correct(self._innovation(z, best, r), best, None, landmark_only)
         if best_nis > self.gates.new_landmark_nis:
-            return self._add(z, None, r)
+            return self._add(np.array(z), None, r)
         return UpdateReport("ambiguous", best, None, best_nis, None)
 
     def add_landmark(self, z: np.ndarray, obstacle_id: int | None = None,
@@ -400,60 +423,60 @@ class EkfSlam:
     def _correct_batch(self, z: np.ndarray, indices: np.ndarray) -> list[tuple]:
         """Joint Joseph update of the landmarks ``indices`` (K,) measured as ``z`` (K, 2).
 
-        H is (2K, 3+2K) on the pose and the K landmarks' columns; P H^T (N, 2K) is one gather
-        and one product; S (2K, 2K). Returns (action, innovation, NIS) per observation.
+        H is (2K, 3+2K) on the pose and the K landmarks' columns; H P (2K, N) is one gather of
+        their rows and one product; S (2K, 2K). Returns (action, innovation, NIS) per observation.
         """
-        mean, k_obs, n = self._mean_buf, len(indices), self._dim
-        rows = np.arange(k_obs)
-        lm_cols = (POSE_DIM + LANDMARK_DIM * indices[:, None] + np.arange(2)).ravel()  # (2K,)
-        d = mean[lm_cols].reshape(k_obs, 2) - mean[:2]                        # (K, 2)
-        range_sq = np.einsum("ij,ij->i", d, d)
-        range_m = np.sqrt(range_sq)
-        innovation = np.empty((k_obs, 2))
-        innovation[:, 0] = z[:, 0] - range_m
-        innovation[:, 1] = wrap_angles(z[:, 1] - (np.arctan2(d[:, 1], d[:, 0]) - mean[2]))
-        lm = np.empty((k_obs, 2, 2))                                 # H_m of each landmark
-        lm[:, 0, 0], lm[:, 0, 1] = d[:, 0] / range_m, d[:, 1] / range_m
-        lm[:, 1, 0], lm[:, 1, 1] = -d[:, 1] / range_sq, d[:, 0] / range_sq
-        jac = np.zeros((k_obs, 2, POSE_DIM + 2 * k_obs))             # H as (K, 2, 3+2K)
-        jac[:, :, :2] = -lm
-        jac[:, 1, 2] = -1.0
-        jac[:, :, POSE_DIM:].reshape(k_obs, 2, k_obs, 2)[rows, :, rows, :] = lm
-        jac = jac.reshape(2 * k_obs, -1)
-        cols = np.concatenate((np.arange(POSE_DIM), lm_cols))
-        p_ht = self._cov_buf[:n, cols] @ jac.T                               # (N, 2K)
-        s = jac @ p_ht[cols]
-        s4 = s.reshape(k_obs, 2, k_obs, 2)
-        s4[rows, :, rows, :] += self._meas_cov
-        blocks = s4[rows, :, rows, :]                                         # (K, 2, 2)
-        det = blocks[:, 0, 0] * blocks[:, 1, 1] - blocks[:, 0, 1] * blocks[:, 1, 0]
-        nis = (blocks[:, 1, 1] * innovation[:, 0] ** 2
-               - (blocks[:, 0, 1] + blocks[:, 1, 0]) * innovation[:, 0] * innovation[:, 1]
-               + blocks[:, 0, 0] * innovation[:, 1] ** 2) / det
+        # Per observation in scalars (K is a camera frame's few observations): a few dozen
+        # numpy calls on (K, 2) arrays cost more than the arithmetic.
+        mean, k_obs = self._mean_buf, len(indices)
+        width = POSE_DIM + LANDMARK_DIM * k_obs
+        lm_cols = [POSE_DIM + LANDMARK_DIM * i + j for i in indices.tolist() for j in (0, 1)]
+        north, east, yaw = mean[:3].tolist()
+        landmarks = mean.take(lm_cols).tolist()
+        jac_rows, innovation = [], []
+        for k, (z_range, z_bearing) in enumerate(z.tolist()):
+            d_north, d_east = landmarks[2 * k] - north, landmarks[2 * k + 1] - east
+            range_sq = d_north * d_north + d_east * d_east
+            range_m = math.sqrt(range_sq)
+            innovation.append((z_range - range_m,
+                               wrap_angle(z_bearing - (math.atan2(d_east, d_north) - yaw))))
+            a, b = d_north / range_m, d_east / range_m
+            c, e = d_east / range_sq, d_north / range_sq
+            m = POSE_DIM + LANDMARK_DIM * k
+            row_r, row_b = [0.0] * width, [0.0] * width
+            row_r[0], row_r[1], row_r[m], row_r[m + 1] = -a, -b, a, b
+            row_b[0], row_b[1], row_b[2], row_b[m], row_b[m + 1] = c, -e, -1.0, -c, e
+            jac_rows += (row_r, row_b)
+        jac = np.array(jac_rows)                                   # H on (pose, landmarks), (2K, 3+2K)
+        innovation = np.array(innovation)                          # (K, 2)
+        cols = np.array([0, 1, 2] + lm_cols)
+        hp = jac.dot(self._cov_buf.take(cols, axis=0))             # H P, (2K, N)
+        s = hp.take(cols, axis=1).dot(jac.T)
+        s += s.T
+        s *= 0.5
+        s += self._block_meas_cov(k_obs)
+        diag, off = s.diagonal(), s.diagonal(1)[::2]               # each observation's own 2x2
+        s00, s11 = diag[0::2], diag[1::2]
+        v_r, v_b = innovation[:, 0], innovation[:, 1]
+        nis = (s11 * v_r * v_r - 2.0 * off * v_r * v_b + s00 * v_b * v_b) / (s00 * s11 - off * off)
         ok = nis <= self.gates.outlier_nis
-        out = [("updated" if good else "outlier", (float(v[0]), float(v[1])), float(q))
-               for good, v, q in zip(ok.tolist(), innovation, nis.tolist())]
+        out = [("updated" if good else "outlier", (v[0], v[1]), q)
+               for good, v, q in zip(ok.tolist(), innovation.tolist(), nis.tolist())]
         if not ok.any():
             return out
         if not ok.all():
             keep = np.repeat(ok, 2)
-            p_ht, s, innovation = p_ht[:, keep], s[np.ix_(keep, keep)], innovation[ok]
-        width = p_ht.shape[1]
-        # [K B] and [B K] in Fortran order, as dgemm takes them (no copies in the call)
-        left = np.empty((n, 2 * width), order="F")
-        right = np.empty((n, 2 * width), order="F")
-        gain, half = left[:, :width], right[:, :width]
-        np.matmul(p_ht, np.linalg.inv(s), out=gain)                          # K, (N, 2K)
-        self._mean_buf += gain @ innovation.ravel()
-        self._mean_buf[2] = wrap_angle(self._mean_buf[2])
-        np.matmul(gain, s, out=half)
-        half *= -0.5
-        half += p_ht                                                          # B, (N, 2K)
-        left[:, width:] = half
-        right[:, width:] = gain
-        # as in _correct: P -= [K B] [B K]^T, one pass, in place on P^T (P is symmetric)
-        dgemm(-1.0, right, left, beta=1.0, c=self._cov_buf.T, trans_b=1, overwrite_c=1)
+            hp, s, innovation = hp[keep], s[np.ix_(keep, keep)], innovation[ok]
+        # one rank-2K Joseph correction, the same single dgemm pass as one observation's
+        self._joseph_rows(hp, s, np.linalg.inv(s), innovation.ravel())
         return out
+
+    def _block_meas_cov(self, k_obs: int) -> np.ndarray:
+        """R of K observations stacked, block diagonal (2K, 2K), kept per K."""
+        cache = self.__dict__.setdefault("_block_r", {})
+        if k_obs not in cache:
+            cache[k_obs] = np.kron(np.eye(k_obs), self._meas_cov)
+        return cache[k_obs]
 
     def set_landmark_id(self, index: int, obstacle_id: int) -> None:
         """Name a landmark (the navigator gives id-less ones internal negative ids)."""
@@ -533,27 +556,48 @@ class EkfSlam:
 
     def nis_against(self, z: np.ndarray, index: int) -> tuple[float, np.ndarray]:
         """NIS and innovation of z against one landmark."""
-        _, innovation, s, _ = self._innovation(z, index)
-        return float(innovation @ np.linalg.solve(s, innovation)), innovation
+        parts = self._innovation(z, index)
+        return parts.nis, np.array(parts.innovation)
 
-    def _innovation(self, z: np.ndarray, index: int, meas_cov: np.ndarray | None = None):
-        """Innovation (2,), S (2,2), P H^T (N,2) and the five state indices it involves."""
-        mean = self._mean_buf
+    def _innovation(self, z, index: int, meas_cov=None) -> "_Innovation":
+        """Innovation, S, its inverse and H P of one range-bearing observation z of a landmark.
+
+        H touches five states only (the pose and the landmark): with a = dn/r, b = de/r,
+        c = de/r^2, e = dn/r^2 its rows are [-a, -b, 0, a, b] and [c, -e, -1, -c, e] on the
+        columns (0, 1, 2, m, m+1). H P (2, N) comes from those five rows of P (contiguous, P is
+        symmetric) in one small product; S and its inverse are 2x2, written out in scalars.
+        """
+        mean, cov = self._mean_buf, self._cov_buf
         s0 = POSE_DIM + LANDMARK_DIM * index
-        d_north = mean[s0] - mean[0]
-        d_east = mean[s0 + 1] - mean[1]
+        cols = np.array((0, 1, 2, s0, s0 + 1))
+        north, east, yaw, d_north, d_east = mean.take(cols).tolist()
+        d_north -= north
+        d_east -= east
         range_sq = d_north * d_north + d_east * d_east
         range_m = math.sqrt(range_sq)
-        innovation = np.array([z[0] - range_m,
-                               wrap_angle(z[1] - (math.atan2(d_east, d_north) - mean[2]))])
-        jac = np.array([[-d_north / range_m, -d_east / range_m, 0.0, d_north / range_m, d_east / range_m],
-                        [d_east / range_sq, -d_north / range_sq, -1.0, -d_east / range_sq, d_north / range_sq]])
-        cols = np.array([0, 1, 2, s0, s0 + 1])
-        p_ht = self.cov[:, cols] @ jac.T                          # (N, 2)
-        s = jac @ p_ht[cols] + (self._meas_cov if meas_cov is None else meas_cov)
-        return cols, innovation, s, p_ht
+        innov_r = z[0] - range_m
+        innov_b = wrap_angle(z[1] - (math.atan2(d_east, d_north) - yaw))
+        a, b = d_north / range_m, d_east / range_m
+        c, e = d_east / range_sq, d_north / range_sq
+        jac = np.array(((-a, -b, 0.0, a, b), (c, -e, -1.0, -c, e)))
+        hp = jac.dot(cov.take(cols, axis=0))                          # H P, (2, N)
+        (h00, h01, h02, h03, h04), (h10, h11, h12, h13, h14) = hp.take(cols, axis=1).tolist()
+        u0, v0, u1, v1 = h03 - h00, h04 - h01, h13 - h10, h14 - h11   # S = H P H^T
+        if meas_cov is None:
+            (r00, r01), (_, r11) = self._meas_cov_rows
+        else:
+            (r00, r01), (_, r11) = meas_cov
+        s00 = a * u0 + b * v0 + r00
+        s01 = 0.5 * ((-c * u0 + e * v0 - h02) + (a * u1 + b * v1)) + r01
+        s11 = -c * u1 + e * v1 - h12 + r11
+        det = s00 * s11 - s01 * s01
+        i00, i01, i11 = s11 / det, -s01 / det, s00 / det
+        nis = (i00 * innov_r * innov_r + 2.0 * i01 * innov_r * innov_b
+               + i11 * innov_b * innov_b)
+        return _Innovation((innov_r, innov_b), ((s00, s01), (s01, s11)),
+                           ((i00, i01), (i01, i11)), hp, nis)
 
-    def _correct(self, parts: tuple, index: int, obstacle_id: int | None,
+    def _correct(self, parts: "_Innovation", index: int, obstacle_id: int | None,
                  landmark_only: bool = False) -> UpdateReport:
         """Kalman update of one landmark; Joseph form, applied in place as one rank-4 correction.
 
@@ -561,30 +605,46 @@ class EkfSlam:
                   = P - (K B^T + B K^T) with B = PHt - K S / 2,
         which stays symmetric positive semi-definite to rounding even when K is slightly off.
         """
-        cols, innovation, s, p_ht = parts
-        s_inv = np.linalg.inv(s)
-        nis = float(innovation @ s_inv @ innovation)
         if landmark_only:
-            self._correct_landmark_only(index, innovation, s, s_inv, p_ht)
-        else:
-            self._apply_gain(innovation, s, s_inv, p_ht)
-        return UpdateReport("updated", index, (float(innovation[0]), float(innovation[1])),
-                            nis, obstacle_id)
+            self._correct_landmark_only(index, np.array(parts.innovation), np.array(parts.s),
+                                        np.array(parts.s_inv), parts.hp.T)
+            return UpdateReport("updated", index, parts.innovation, parts.nis, obstacle_id)
+        (s00, s01), (_, s11) = parts.s
+        (i00, i01), (_, i11) = parts.s_inv
+        coef = _joseph_coef2(s00, s01, s11, i00, i01, i11, *parts.innovation)
+        self._apply_rows(coef.dot(parts.hp), 2)
+        return UpdateReport("updated", index, parts.innovation, parts.nis, obstacle_id)
 
-    def _apply_gain(self, innovation: np.ndarray, s: np.ndarray, s_inv: np.ndarray,
-                    p_ht: np.ndarray) -> None:
-        """Mean and Joseph covariance update in place for any measurement of dimension k:
-        innovation (k,), S and S^-1 (k,k), P H^T (N,k). One rank-2k BLAS pass."""
-        gain = p_ht @ s_inv                                        # K, (N, k)
-        self._mean_buf += gain @ innovation
-        self._mean_buf[2] = wrap_angle(self._mean_buf[2])
-        half = p_ht - 0.5 * gain @ s                               # B, (N, k)
-        left = np.concatenate((gain, half), axis=1)                # (N, 2k)
-        right = np.concatenate((half, gain), axis=1)
-        # P -= left right^T in one BLAS pass, no (N, N) temporary: P is symmetric, so its
+    def _joseph_rows(self, hp: np.ndarray, s, s_inv, innovation) -> None:
+        """The in-place mean and Joseph update from H P (k, N), S and S^-1 (k, k), innovation (k,).
+
+        K^T = S^-1 H P, B^T = (I - S S^-1 / 2) H P and the mean's step K v = (S^-1 v)^T H P are
+        rows of one product C H P, C = [S^-1; I - S S^-1/2; S^-1; (S^-1 v)^T] (3k+1, k): its
+        rows 0..2k are [K B] and rows k..3k [B K], both Fortran-ordered (N, 2k) views as dgemm
+        takes them, so the BLAS pass copies nothing.
+        """
+        s, s_inv = np.asarray(s, dtype=float), np.asarray(s_inv, dtype=float)
+        k = len(s)
+        coef = np.empty((2 * k, k))
+        coef[:k] = s_inv
+        np.multiply(s @ s_inv, -0.5, out=coef[k:])
+        coef[k:].flat[::k + 1] += 1.0
+        rows = np.empty((3 * k + 1, hp.shape[1]))
+        np.dot(coef, hp, out=rows[:2 * k])
+        rows[2 * k:3 * k] = rows[:k]                                  # K again, not recomputed
+        np.dot(s_inv @ np.asarray(innovation, dtype=float), hp, out=rows[3 * k])
+        self._apply_rows(rows, k)
+
+    def _apply_rows(self, rows: np.ndarray, k: int) -> None:
+        """Apply C H P (3k+1, N) of :meth:`_joseph_rows` to the mean and the covariance."""
+        mean = self._mean_buf
+        mean += rows[3 * k]
+        mean[2] = wrap_angle(mean.item(2))
+        # P -= [K B] [B K]^T in one BLAS pass, no (N, N) temporary: P is symmetric, so its
         # transpose is a Fortran-ordered view of the same memory, which dgemm updates in
-        # place (P^T <- P^T - right left^T). numpy's ``P -= left @ right.T`` takes two passes.
-        dgemm(-1.0, right, left, beta=1.0, c=self._cov_buf.T, trans_b=1, overwrite_c=1)
+        # place (P^T <- P^T - [B K] [K B]^T). numpy's ``P -= left @ right.T`` takes two passes.
+        dgemm(-1.0, rows[k:3 * k].T, rows[:2 * k].T, beta=1.0, c=self._cov_buf.T, trans_b=1,
+              overwrite_c=1)
 
     def _correct_landmark_only(self, index: int, innovation: np.ndarray, s: np.ndarray,
                                s_inv: np.ndarray, p_ht: np.ndarray) -> None:

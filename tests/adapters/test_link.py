@@ -122,3 +122,36 @@ def test_opening_a_busy_port_is_a_link_error():
                 pass
     with pytest.raises(LinkError, match="cannot open udpin"):
         asyncio.run(scenario())
+
+
+def test_coalesced_sends_go_out_as_one_datagram_in_order_counted_and_recorded_each():
+    import socket
+
+    from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+    async def scenario():
+        peer = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        peer.bind(("127.0.0.1", 0))
+        peer.settimeout(5.0)
+        recorded = []
+        try:
+            async with open_link(f"udpout:127.0.0.1:{peer.getsockname()[1]}",
+                                 codec.Encoder(1, 191)) as us:
+                us.on_sent = lambda t_us, data: recorded.append(data)
+                with us.coalesced():
+                    sent = [us.send(codec.heartbeat()) for _ in range(3)]
+                    assert recorded == []                      # held until the block ends
+                    with us.coalesced():                       # nested: still the outer block
+                        sent.append(us.send(codec.gcs_heartbeat()))
+                burst = await asyncio.to_thread(peer.recv, 65536)
+                us.send(codec.heartbeat())                     # outside: a datagram of its own
+                single = await asyncio.to_thread(peer.recv, 65536)
+                return sent, burst, single, recorded, us.statistics()
+        finally:
+            peer.close()
+    sent, burst, single, recorded, stats = asyncio.run(scenario())
+    assert burst == b"".join(sent)
+    parsed = mavlink.MAVLink(None).parse_buffer(burst)
+    assert [m.get_seq() for m in parsed] == [0, 1, 2, 3]
+    assert len(mavlink.MAVLink(None).parse_buffer(single)) == 1
+    assert recorded[:4] == sent and stats.sent == 5

@@ -88,3 +88,34 @@ def test_every_emitted_message_packs_and_angles_stay_in_range():
     assert (lpn.z, lpn.vz) == (-10.0, -0.5)
     od = dec.decode(bytearray(telemetry.obstacle_distance(dets, 1.0, SC.sensor).pack(enc)))
     assert len(od.distances) == 72 and abs(min(od.distances) - 1800) <= 50   # noisy range - radius
+
+
+def test_a_steps_burst_goes_out_over_udp_in_few_datagrams_of_whole_packets(tmp_path):
+    """One step's telemetry shares datagrams (up to MAX_DATAGRAM_BYTES, whole packets each):
+    the position and the attitude of one step arrive together."""
+    import socket
+
+    from sitl_stub.links import MAX_DATAGRAM_BYTES
+
+    from .support import start_stub
+
+    stub = start_stub(tmp_path, "--speedup", "5", "--udp", "127.0.0.1:0")
+    sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    sock.settimeout(5.0)
+    try:
+        client = mavlink.MAVLink(None, 255, 190)
+        sock.sendto(client.heartbeat_encode(6, 8, 0, 0, 0).pack(client), ("127.0.0.1", stub.udp_port))
+        parser = mavlink.MAVLink(None)
+        together = 0
+        for _ in range(20):
+            datagram = sock.recv(65536)
+            assert len(datagram) <= MAX_DATAGRAM_BYTES
+            msgs = parser.parse_buffer(datagram) or []
+            assert msgs and all(m.get_type() != "BAD_DATA" for m in msgs)
+            assert len(parser.buf) - parser.buf_index == 0          # no half packet left over
+            kinds = [m.get_type() for m in msgs]
+            together += "LOCAL_POSITION_NED" in kinds and "ATTITUDE" in kinds
+        assert together >= 5
+    finally:
+        sock.close()
+        stub.stop()

@@ -1,0 +1,121 @@
+"""The in-place update paths of EkfSlam (one landmark, its Schmidt variant, a position and a yaw
+fix) against a straightforward dense Joseph update written out here: full H over the state,
+K = P H^T S^-1 (zero outside the landmark's rows for Schmidt), (I-KH) P (I-KH)^T + K R K^T.
+The filter under test exploits H's sparsity and writes P in place; both must agree."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from companion.core.ekf_slam import AssociationGates, EkfSlam, Observation, SlamNoise
+from companion.core.geometry import wrap_angle
+
+NOISE = SlamNoise(0.3, math.radians(0.02), 0.1, 0.1, math.radians(0.5))
+RANGE_BEARING_R = np.diag([NOISE.range_sigma_m ** 2, NOISE.bearing_sigma_rad ** 2])
+
+
+def correlated_filter(landmarks: int = 30, seed: int = 4) -> tuple[EkfSlam, np.random.Generator]:
+    """A filter whose covariance is dense: landmarks seen from several poses, each move
+    correlating the pose with the map."""
+    rng = np.random.default_rng(seed)
+    slam = EkfSlam(np.array([1.0, -2.0, 0.4]), np.diag([0.3, 0.2, 0.02]), NOISE,
+                   AssociationGates(outlier_nis=1e12, pose_correction_nis=1e12))
+    for i in range(landmarks):
+        slam.update(Observation(rng.uniform(5, 80), rng.uniform(-math.pi, math.pi), i))
+        slam.predict(rng.uniform(0, 3), rng.normal(0, 0.05), 0.2)
+    for i in rng.choice(landmarks, size=landmarks // 2, replace=False):
+        slam.update(Observation(*predicted(slam, int(i), rng), int(i)))
+        slam.predict(2.0, 0.02, 0.3)
+    return slam, rng
+
+
+def predicted(slam: EkfSlam, index: int, rng, noise=(0.3, 0.01)) -> tuple[float, float]:
+    """An observation of landmark ``index`` near what the filter predicts."""
+    mean = slam.mean
+    d = mean[3 + 2 * index:5 + 2 * index] - mean[:2]
+    return (float(np.hypot(*d) + rng.normal(0, noise[0])),
+            wrap_angle(math.atan2(d[1], d[0]) - mean[2] + rng.normal(0, noise[1])))
+
+
+def range_bearing_jacobian(mean: np.ndarray, index: int) -> tuple[np.ndarray, np.ndarray]:
+    s0 = 3 + 2 * index
+    dn, de = mean[s0] - mean[0], mean[s0 + 1] - mean[1]
+    q = dn * dn + de * de
+    r = math.sqrt(q)
+    h = np.zeros((2, mean.size))
+    h[0, [0, 1, s0, s0 + 1]] = [-dn / r, -de / r, dn / r, de / r]
+    h[1, [0, 1, 2, s0, s0 + 1]] = [de / q, -dn / q, -1.0, -de / q, dn / q]
+    return h, np.array([r, math.atan2(de, dn) - mean[2]])
+
+
+def dense_joseph(mean, cov, h, innovation, r, gain_rows=None):
+    """Returns (mean, cov, nis); ``gain_rows``: the only state rows the gain may touch."""
+    s = h @ cov @ h.T + r
+    gain = cov @ h.T @ np.linalg.inv(s)
+    if gain_rows is not None:
+        mask = np.zeros(mean.size, dtype=bool)
+        mask[gain_rows] = True
+        gain[~mask] = 0.0
+    x = mean + gain @ innovation
+    x[2] = wrap_angle(x[2])
+    a = np.eye(mean.size) - gain @ h
+    return x, a @ cov @ a.T + gain @ r @ gain.T, float(innovation @ np.linalg.solve(s, innovation))
+
+
+def assert_same_state(slam: EkfSlam, mean, cov):
+    scale = np.abs(cov).max()
+    assert np.allclose(slam.mean, mean, rtol=0, atol=1e-10)
+    assert np.allclose(slam.cov, cov, rtol=0, atol=1e-11 * scale)
+    assert np.abs(slam.cov - slam.cov.T).max() <= 1e-12 * scale
+
+
+@pytest.mark.parametrize("meas_cov", [None, ((0.04, 0.001), (0.001, 4e-4))])
+def test_one_landmark_update_equals_the_dense_joseph_update(meas_cov):
+    slam, rng = correlated_filter()
+    for index in (0, 7, 29, 7):
+        z = np.array(predicted(slam, index, rng))
+        mean, cov = slam.mean.copy(), slam.cov.copy()
+        h, expected_z = range_bearing_jacobian(mean, index)
+        innovation = np.array([z[0] - expected_z[0], wrap_angle(z[1] - expected_z[1])])
+        r = RANGE_BEARING_R if meas_cov is None else np.array(meas_cov)
+        want_mean, want_cov, want_nis = dense_joseph(mean, cov, h, innovation, r)
+        report = slam.update(Observation(z[0], z[1], index, meas_cov))
+        assert report.action == "updated"
+        assert report.nis == pytest.approx(want_nis, rel=1e-9)
+        assert np.allclose(report.innovation, innovation, atol=1e-12)
+        assert_same_state(slam, want_mean, want_cov)
+
+
+def test_schmidt_update_equals_the_dense_joseph_update_with_the_gain_on_the_landmark_only():
+    slam, rng = correlated_filter()
+    index = 12
+    z = np.array(predicted(slam, index, rng))
+    mean, cov = slam.mean.copy(), slam.cov.copy()
+    h, expected_z = range_bearing_jacobian(mean, index)
+    innovation = np.array([z[0] - expected_z[0], wrap_angle(z[1] - expected_z[1])])
+    want_mean, want_cov, _ = dense_joseph(mean, cov, h, innovation, RANGE_BEARING_R,
+                                          gain_rows=[3 + 2 * index, 4 + 2 * index])
+    slam.update(Observation(z[0], z[1], index), landmark_only=True)
+    assert_same_state(slam, want_mean, want_cov)
+
+
+def test_position_and_yaw_fixes_equal_the_dense_joseph_update():
+    slam, _ = correlated_filter()
+    mean, cov = slam.mean.copy(), slam.cov.copy()
+    h = np.zeros((2, mean.size))
+    h[0, 0] = h[1, 1] = 1.0
+    fix = np.array([mean[0] + 0.4, mean[1] - 0.3])
+    want_mean, want_cov, _ = dense_joseph(mean, cov, h, fix - mean[:2], np.eye(2) * 0.25)
+    assert slam.update_position(fix[0], fix[1], 0.5, 1e9).action == "position"
+    assert_same_state(slam, want_mean, want_cov)
+
+    mean, cov = slam.mean.copy(), slam.cov.copy()
+    h = np.zeros((1, mean.size))
+    h[0, 2] = 1.0
+    yaw = wrap_angle(mean[2] + 0.01)
+    want_mean, want_cov, _ = dense_joseph(mean, cov, h, np.array([wrap_angle(yaw - mean[2])]),
+                                          np.array([[1e-4]]))
+    assert slam.update_yaw(yaw, 0.01, 1e9).action == "yaw"
+    assert_same_state(slam, want_mean, want_cov)
