@@ -17,6 +17,7 @@ from companion.core.ekf_slam import AssociationGates, EkfSlam, Observation, Slam
 from companion.core.estimator_options import EstimatorOptions, moderate
 from companion.core.geometry import move, move_velocity, place, wrap_angle
 from companion.core.lifecycle import Lifecycle, expected_visible
+from companion.core.range_noise import with_range_model
 from companion.core.guidance import GuidanceCommand, GuidanceParams, guide_apf, guide_cone
 from companion.core.arc import Motion, VehicleLimits
 from companion.core.movers import (MoverParams, MoverTracker, apparent_velocity, mover_growth,
@@ -298,6 +299,9 @@ class Navigator:
         used: set[int] = set()
         reports = []
         self._frame_hits, self._frame_near, self._frame_added = set(), set(), set()
+        noise = self.slam.noise
+        observations = with_range_model(observations, noise.range_sigma_m,
+                                        self.options.range_sigma_k_per_m, noise.bearing_sigma_rad)
         anonymous = [obs for obs in observations if obs.obstacle_id is None]
         ids = self.slam.landmark_ids()
         plans = {id(obs): (p.action, ids[p.index] if p.index is not None else None)
