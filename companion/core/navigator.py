@@ -100,6 +100,7 @@ class Navigator:
         self._frame_hits: set[int] = set()      # landmark keys detected in the current frame
         self._frame_near: set[int] = set()      # ... come near by an ambiguous observation
         self._frame_added: set[int] = set()
+        self._frame_taken: set[int] = set()     # ... planned for update by the frame's association
         self._guidance_keys: list = []          # landmark key of each landmark row of obstacles()
 
     # ------------------------------------------------------ timed inputs
@@ -308,6 +309,7 @@ class Navigator:
                  for obs, p in zip(anonymous, associate_frame(
                      self.slam, np.array([[o.range_m, o.bearing_rad] for o in anonymous]),
                      meas_covs=[o.meas_cov_array() for o in anonymous]))}
+        self._frame_taken = {key for action, key in plans.values() if action == "update"}
         for obs in observations:
             report = self._observe_one(obs, used, plans.get(id(obs)))
             if report.action in ("updated", "added") and report.landmark_index is not None:
@@ -387,18 +389,28 @@ class Navigator:
                 self.monitor.add(self.clock_s, report.nis, 2)
             self._note_young(key, obs, report.action)
             return report
-        key = self._moved_young(place(self._dr_pose, z))
-        if key is not None:
-            self._note_young(key, obs, "moved")
+        moved = self._moved_young(place(self._dr_pose, z))
+        if moved is not None:
+            self._note_young(moved, obs, "moved")
             return UpdateReport("moved", None, None, None, None)
         if len(self.movers):
             point, cov = self._world_point(obs)
             track = self.movers.nearest(self.clock_s, point, cov)
             if track is not None:
                 return self._update_mover(track, obs)
-        if action == "ambiguous" and key in ids:
-            self._frame_near.add(key)
-            return UpdateReport("ambiguous", ids.index(key), None, None, None)
+        if action == "new":
+            # New against the map the frame began with; one born from this frame's own earlier
+            # observation may be what this one sees (two returns of one post): ambiguous then.
+            nis, _ = slam.nis_all(z, obs.meas_cov_array())
+            near = [i for i in range(len(nis)) if ids[i] in self._frame_added]
+            if near and float(np.min(nis[near])) <= slam.gates.new_landmark_nis:
+                action, key = "ambiguous", ids[near[int(np.argmin(nis[near]))]]
+        if action == "ambiguous":
+            # Never an update: the landmark it gated on is another observation's this frame.
+            if key in ids:
+                self._frame_near.add(key)
+                return UpdateReport("ambiguous", ids.index(key), None, None, None)
+            return UpdateReport("ambiguous", None, None, None, None)
         report = slam.add_landmark(z, None, obs.meas_cov_array()) if action == "new" \
             else slam.update(obs, exclude=used)
         if report.action == "added":
@@ -428,9 +440,13 @@ class Navigator:
             young.last_obs = obs
 
     def _moved_young(self, dr_point: np.ndarray) -> int | None:
-        """The young landmark whose last dead-reckoned point is near enough for a mover."""
+        """The young landmark whose last dead-reckoned point is near enough for a mover (one
+        already seen in this frame, or taken by another of its observations, is not: nothing
+        moves between two returns of one frame)."""
         best, best_gap = None, math.inf
         for key, young in self._young.items():
+            if key in self._frame_hits or key in self._frame_taken:
+                continue
             gap = float(np.hypot(*(dr_point - young.points[-1])))
             reach = (MAX_MOVER_SPEED_MPS * (self.clock_s - young.times[-1]) + MOVED_GATE_M)
             if gap <= reach and gap < best_gap:
