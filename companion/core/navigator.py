@@ -17,6 +17,7 @@ from companion.core.ekf_slam import AssociationGates, EkfSlam, Observation, Slam
 from companion.core.estimator_options import EstimatorOptions, moderate
 from companion.core.geometry import move, move_velocity, place, wrap_angle
 from companion.core.lifecycle import Lifecycle, expected_visible
+from companion.core.motion_evidence import is_straight_track
 from companion.core.range_noise import with_range_model
 from companion.core.guidance import GuidanceCommand, GuidanceParams, guide_apf, guide_cone
 from companion.core.arc import Motion, VehicleLimits
@@ -391,6 +392,7 @@ class Navigator:
             return report
         moved = self._moved_young(place(self._dr_pose, z))
         if moved is not None:
+            self._relocate(moved, z, obs, used)
             self._note_young(moved, obs, "moved")
             return UpdateReport("moved", None, None, None, None)
         if len(self.movers):
@@ -453,6 +455,22 @@ class Navigator:
                 best, best_gap = key, gap
         return best
 
+    def _relocate(self, key: int, z: np.ndarray, obs: Observation, used: set[int]) -> None:
+        """A young landmark's object was seen where it has moved to: the landmark restarts there
+        (marginalised and added again under its key; on probation it never corrected the pose,
+        so nothing else learnt from where it was). A false alarm born beside a post that takes
+        the post's first sightings so stands on the post, not where the false alarm was, and
+        the post's next sightings update it; a mover is mapped where it is until demoted."""
+        slam = self.slam
+        index = slam.landmark_ids().index(key)
+        slam.remove_landmark(index)
+        shifted = {i - 1 if i > index else i for i in used if i != index}
+        used.clear()
+        used.update(shifted)
+        report = slam.add_landmark(z, None, obs.meas_cov_array())
+        slam.set_landmark_id(report.landmark_index, key)
+        used.add(report.landmark_index)
+
     def _demote(self, oid: int, obs: Observation, used: set[int] | None = None,
                 velocity: tuple[np.ndarray, float] | None = None) -> None:
         """Marginalise landmark ``oid`` out of the map and start a mover track at ``obs``."""
@@ -490,12 +508,23 @@ class Navigator:
                 # for the unicycle, the vehicle's sideways motion it does not model (crab).
                 speed = float(np.hypot(*velocity)) - crab
                 moving = speed > params.speed_threshold_mps and speed > params.speed_sigmas * sigma
+                # ... and the points are one object's straight track, not clutter that a fit
+                # joins (two false alarms, or one beside a post's first sighting)
+                moving = moving and is_straight_track(
+                    young.times, young.points, self._track_sigmas(young))
             if moving:
                 # the track starts at the velocity that convicted it: a mover that leaves the
                 # view soon after is then predicted where it goes, not left standing
                 self._demote(oid, young.last_obs, velocity=(velocity, sigma))
                 detected.append(UpdateReport("mover_detected", None, None, None, oid))
         return detected
+
+    def _track_sigmas(self, young: _Young) -> np.ndarray:
+        """Each dead-reckoned point's sigma for the straight-track test: its own, plus the dead
+        reckoning's random walk over the track's span (what a line does not absorb of it)."""
+        span = young.times[-1] - young.times[0]
+        walk_var = self._dr_speed_sigma_mps() ** 2 * self.slam.noise.reference_dt_s * span
+        return np.sqrt(np.asarray(young.sigmas) ** 2 + walk_var)
 
     def _dr_speed_sigma_mps(self) -> float:
         if self.options.motion_model == "velocity_ned":
