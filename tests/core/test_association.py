@@ -89,7 +89,7 @@ def realistic_navigator():
     """realistic.yaml's filter (R = diag((0.01 + 0.0015 r^2)^2, (1 deg)^2)), vehicle at (20, 0)
     looking north, probation off (only association and the lifecycle decide)."""
     scenario = load_scenario("config/scenarios/realistic.yaml")
-    est = dataclasses.replace(scenario.estimator, established_sightings=1, mover_probation_s=0.0)
+    est = dataclasses.replace(scenario.estimator_config(), established_sightings=1, mover_probation_s=0.0)
     return make_navigator(dataclasses.replace(scenario, estimator=est))
 
 

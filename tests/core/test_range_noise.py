@@ -102,11 +102,15 @@ def test_stub_camera_range_noise_grows_with_the_square_of_the_range():
                                             ("fast", "expected a number")])
 def test_a_bad_k_names_the_file_and_the_key(tmp_path, section, value, problem):
     text = open(REALISTIC).read()
-    old = {"sensor": "range_sigma_k_per_m: 0.0015  # (source",
-           "estimator": "range_sigma_k_per_m: 0.0015  # ..."}[section]
+    old = "range_sigma_k_per_m: 0.0015  # (source"
     assert text.count(old) == 1
+    if section == "sensor":
+        text = text.replace(old, old.replace("0.0015", value))
+    else:
+        text += ("estimator:\n  motion_model: paper\n  range_sigma_m: 0.01\n"
+                 f"  bearing_sigma_deg: 1.0\n  range_sigma_k_per_m: {value}\n")
     path = tmp_path / "bad.yaml"
-    path.write_text(text.replace(old, old.replace("0.0015", value)))
+    path.write_text(text)
     with pytest.raises(ConfigError) as info:
         load_scenario(path)
     assert str(info.value).startswith(f"{path}: {section}.range_sigma_k_per_m: ")
@@ -139,7 +143,7 @@ def test_the_update_takes_r_from_the_filters_model_not_the_truths():
     # at 30 m starts with the filter's sigma_r along the line of sight, floor + k_filter r^2.
     scenario = realistic([])
     truth_sensor = dataclasses.replace(scenario.sensor, range_sigma_k_per_m=0.003)
-    est = dataclasses.replace(scenario.estimator, range_sigma_m=0.05, range_sigma_k_per_m=0.001)
+    est = dataclasses.replace(scenario.estimator_config(), range_sigma_m=0.05, range_sigma_k_per_m=0.001)
     nav = make_navigator(dataclasses.replace(scenario, sensor=truth_sensor, estimator=est))
     nav.observe([Observation(30.0, 0.0, None)])
     cov = nav.slam.landmark_covs()[0]
@@ -147,3 +151,21 @@ def test_the_update_takes_r_from_the_filters_model_not_the_truths():
     assert along == pytest.approx((0.05 + 0.001 * 900.0) ** 2, rel=1e-3)
     across = cov[1, 1] - nav.slam.pose_cov[1, 1]
     assert across == pytest.approx((30.0 * math.radians(1.0)) ** 2, rel=1e-2)
+
+
+def test_the_scenario_s_mismatch_template_loads_as_the_filter_s_own_r(tmp_path):
+    # realistic.yaml ends with a commented estimator section for a mismatch study: uncommented,
+    # it loads, and the filter believes the paper's constant 0.1 m while the camera is stereo.
+    lines = open(REALISTIC).read().splitlines()
+    start = lines.index("# estimator:")
+    block = [line[2:] for line in lines[start:] if line.startswith("# ")]
+    path = tmp_path / "mismatch.yaml"
+    path.write_text("\n".join(lines[:start] + block) + "\n")
+    scenario = load_scenario(path)
+    assert scenario.sensor.range_sigma_k_per_m == 0.0015
+    est = scenario.estimator_config()
+    assert (est.range_sigma_m, est.range_sigma_k_per_m, est.motion_model) == (0.1, 0.0, "paper")
+    nav = make_navigator(scenario)
+    nav.observe([Observation(30.0, 0.0, None)])
+    along = nav.slam.landmark_covs()[0][0, 0] - nav.slam.pose_cov[0, 0]
+    assert along == pytest.approx(0.1 ** 2, rel=1e-3)
