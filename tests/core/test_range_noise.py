@@ -107,7 +107,7 @@ def test_a_bad_k_names_the_file_and_the_key(tmp_path, section, value, problem):
     if section == "sensor":
         text = text.replace(old, old.replace("0.0015", value))
     else:
-        text += ("estimator:\n  motion_model: paper\n  range_sigma_m: 0.01\n"
+        text += ("estimator:\n  motion_model: velocity_ned\n  range_sigma_m: 0.01\n"
                  f"  bearing_sigma_deg: 1.0\n  range_sigma_k_per_m: {value}\n")
     path = tmp_path / "bad.yaml"
     path.write_text(text)
@@ -164,7 +164,7 @@ def test_the_scenario_s_mismatch_template_loads_as_the_filter_s_own_r(tmp_path):
     scenario = load_scenario(path)
     assert scenario.sensor.range_sigma_k_per_m == 0.0015
     est = scenario.estimator_config()
-    assert (est.range_sigma_m, est.range_sigma_k_per_m, est.motion_model) == (0.1, 0.0, "paper")
+    assert (est.range_sigma_m, est.range_sigma_k_per_m, est.motion_model) == (0.1, 0.0, "velocity_ned")
     nav = make_navigator(scenario)
     nav.observe([Observation(30.0, 0.0, None)])
     along = nav.slam.landmark_covs()[0][0, 0] - nav.slam.pose_cov[0, 0]
