@@ -29,7 +29,10 @@ from companion.core.union import UnionParams, guide_union
 # (the pose is that close); a later one waits for the odometry that covers its time.
 STRATEGIES = ("cone", "union", "apf")
 MAX_MOVER_SPEED_MPS = 3.0      # an id-less young landmark may have moved this fast...
-MOVED_GATE_M = 1.5             # ...plus this, between two sightings
+MOVED_GATE_M = 1.5             # ...plus this, between two sightings...
+MOVED_MAX_GAP_S = 1.0          # ...at most this long apart (five frames missed in a row at 5 Hz):
+                               # a young landmark unseen for longer is no track to extend (its reach
+                               # would grow without bound and take another obstacle's sightings)
 FRAME_TIMING_UNCERTAINTY_S = 0.05   # half an odometry period
 SAME_TIME_TOLERANCE_S = 1e-3
 MAX_PENDING_FRAMES = 8
@@ -447,7 +450,8 @@ class Navigator:
         moves between two returns of one frame)."""
         best, best_gap = None, math.inf
         for key, young in self._young.items():
-            if key in self._frame_hits or key in self._frame_taken:
+            if key in self._frame_hits or key in self._frame_taken \
+                    or self.clock_s - young.times[-1] > MOVED_MAX_GAP_S:
                 continue
             gap = float(np.hypot(*(dr_point - young.points[-1])))
             reach = (MAX_MOVER_SPEED_MPS * (self.clock_s - young.times[-1]) + MOVED_GATE_M)

@@ -66,3 +66,24 @@ def test_a_false_alarm_beside_a_post_does_not_make_the_post_a_mover():
     assert nav.movers_detected == 0 and len(nav.movers) == 0
     assert nav.slam.landmark_count == 1
     assert np.hypot(*(nav.slam.landmarks()[0] - post)) < 0.2
+
+
+def test_a_young_landmark_unseen_for_long_takes_no_other_obstacle_s_sightings():
+    # A post seen three times, then out of sight for 12 s; then a second post 15 m from it comes
+    # into view. A reach of 3 m/s x 12 s would take it as the first post "moved" and demote both
+    # (seed 42 of realistic.yaml); unseen for over a second, the first is no track to extend.
+    scenario = load_scenario("config/scenarios/paper-anonymous.yaml")
+    nav = make_navigator(scenario)
+    first, second = np.array([50.0, 0.0]), np.array([60.0, 11.0])
+    for _ in range(3):
+        nav.observe([Observation(*observe(nav.slam.pose, first), None)])
+        nav.predict(0.0, 0.0, 0.2)
+    for _ in range(60):
+        nav.predict(0.0, 0.0, 0.2)
+    reports = []
+    for _ in range(10):
+        reports += nav.observe([Observation(*observe(nav.slam.pose, second), None)])
+        nav.predict(0.0, 0.0, 0.2)
+    assert "moved" not in [r.action for r in reports]
+    assert nav.movers_detected == 0
+    assert np.hypot(*(nav.slam.landmarks() - second).T).min() < 0.5      # its own landmark
