@@ -39,6 +39,15 @@ def _sigma(key: str, value: float) -> None:
             "a standard deviation > 0 (the covariance must be positive definite)")
 
 
+MAX_STEREO_K_PER_M = 1.0     # sigma_r = k r^2: at k = 1 /m the range is noise beyond 1 m
+
+
+def _stereo_k(key: str, value: float) -> None:
+    require(0.0 <= value <= MAX_STEREO_K_PER_M, key, value,
+            f"a coefficient in [0, {MAX_STEREO_K_PER_M}] per metre (sigma_r = k r^2; a stereo "
+            "camera's k = disparity sigma px / (focal length px x baseline m), about 0.0015)")
+
+
 # ------------------------------------------------------------------ world
 @dataclass(frozen=True)
 class GeoOrigin:
@@ -171,12 +180,17 @@ class SensorConfig:
     # sector_count bins over the view, turned into landmarks by core/blobs.py), or both
     form: Literal["centres", "sectors", "both"] = "centres"
     sector_count: int = 72
+    # A stereo camera's range error grows with the square of the range: sigma_r(r) =
+    # range_sigma_m + range_sigma_k_per_m * r^2, k = disparity sigma / (focal px * baseline)
+    # (config/scenarios/realistic.yaml gives a real camera's figures). 0: constant range_sigma_m.
+    range_sigma_k_per_m: float = 0.0
 
     def __post_init__(self) -> None:
         require(0.0 < self.fov_deg <= 360.0, "fov_deg", self.fov_deg, "a field of view in (0, 360]")
         _positive("max_range_m", self.max_range_m)
         _positive("rate_hz", self.rate_hz)
         _sigma("range_sigma_m", self.range_sigma_m)
+        _stereo_k("range_sigma_k_per_m", self.range_sigma_k_per_m)
         _sigma("bearing_sigma_deg", self.bearing_sigma_deg)
         require(0.0 <= self.miss_probability < 1.0, "miss_probability", self.miss_probability,
                 "a probability in [0, 1)")
@@ -192,6 +206,10 @@ class SensorConfig:
     @property
     def bearing_sigma_rad(self) -> float:
         return math.radians(self.bearing_sigma_deg)
+
+    def range_sigma_at(self, range_m):
+        """The truth camera's range sigma at ``range_m`` (a float or an array), metres."""
+        return self.range_sigma_m + self.range_sigma_k_per_m * range_m ** 2
 
 
 # ------------------------------------------------------------- companion
@@ -262,6 +280,9 @@ class EstimatorConfig:
     """
     range_sigma_m: float
     bearing_sigma_deg: float
+    # The filter's range model: sigma_r = range_sigma_m + range_sigma_k_per_m * r^2 (the floor and
+    # the stereo k, core/range_noise.py), apart from the truth's sensor keys. 0: constant.
+    range_sigma_k_per_m: float = 0.0
     speed_sigma_mps: float = 0.3
     heading_change_sigma_deg: float = 0.02
     reference_dt_s: float = 0.1
@@ -350,6 +371,7 @@ class EstimatorConfig:
                     "a field of view in (0, 360] or null")
         if self.sensor_max_range_m is not None:
             _positive("sensor_max_range_m", self.sensor_max_range_m)
+        _stereo_k("range_sigma_k_per_m", self.range_sigma_k_per_m)
 
     def lifecycle_params(self) -> LifecycleParams:
         fov = None if self.sensor_fov_deg is None else math.radians(self.sensor_fov_deg)
@@ -375,7 +397,8 @@ class EstimatorConfig:
                                   degraded_radius_m=self.degraded_radius_m,
                                   lost_radius_m=self.lost_radius_m),
             degraded_reaction=self.degraded_reaction, lost_reaction=self.lost_reaction,
-            slow_factor=self.slow_factor, lifecycle=self.lifecycle_params())
+            slow_factor=self.slow_factor, lifecycle=self.lifecycle_params(),
+            range_sigma_k_per_m=self.range_sigma_k_per_m)
 
     def mover_params(self) -> MoverParams:
         return MoverParams(strikes_to_mover=self.mover_strikes, probation_s=self.mover_probation_s,
@@ -447,6 +470,7 @@ class Scenario:
             heading_change_sigma_deg=noise.heading_change_sigma_deg,
             reference_dt_s=self.vehicle.dt_s, range_sigma_m=self.sensor.range_sigma_m,
             bearing_sigma_deg=self.sensor.bearing_sigma_deg,
+            range_sigma_k_per_m=self.sensor.range_sigma_k_per_m,
             motion_model="velocity_ned" if copter else "paper",
             vel_north_sigma_mps=max(velocity_sigma_mps, 1e-6),
             vel_east_sigma_mps=max(velocity_sigma_mps, 1e-6),

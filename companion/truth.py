@@ -147,7 +147,8 @@ class TruthWorld:
                 self.seen_ids.add(oid)
         if sensor.miss_probability:
             seen &= rng.random(count) >= sensor.miss_probability
-        out = np.where(seen, ranges + rng.normal(0.0, sensor.range_sigma_m, count), np.nan)
+        sigma = sensor.range_sigma_at(np.where(seen, ranges, 0.0))     # stereo: grows as r^2
+        out = np.where(seen, ranges + rng.normal(0.0, sigma, count), np.nan)
         if sensor.false_alarm_rate_hz:
             for _ in range(rng.poisson(sensor.false_alarm_rate_hz / sensor.rate_hz)):
                 i = int(rng.integers(count))
@@ -156,7 +157,9 @@ class TruthWorld:
         return out, bearings, increment
 
     def observe(self) -> list[Observation]:
-        """One camera frame: every obstacle centre in view, with R noise, misses, false alarms."""
+        """One camera frame: every obstacle centre in view, with R noise (the range's sigma
+        growing with the range's square for a stereo camera, sensor.range_sigma_at), misses,
+        false alarms."""
         sensor = self.scenario.sensor
         rng = self.rng
         frame = []
@@ -170,7 +173,7 @@ class TruthWorld:
             if sensor.miss_probability and rng.random() < sensor.miss_probability:
                 continue
             frame.append(Observation(
-                range_m + rng.normal(0.0, sensor.range_sigma_m),
+                range_m + rng.normal(0.0, sensor.range_sigma_at(range_m)),
                 wrap_angle(bearing + rng.normal(0.0, sensor.bearing_sigma_rad)),
                 oid if sensor.report_ids else None))
         if sensor.false_alarm_rate_hz:

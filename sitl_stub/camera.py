@@ -54,8 +54,8 @@ def observe(north_m: float, east_m: float, yaw_rad: float,
 
     obstacles: [(id, north_m, east_m, radius_m)] at capture time. Visible = true range to the
     centre <= max_range_m and |true bearing| <= fov/2. Each visible obstacle is missed with
-    miss_probability; otherwise reported with range + N(0, range_sigma^2) and bearing +
-    N(0, bearing_sigma^2). False alarms: Poisson(false_alarm_rate_hz / rate_hz) per frame, at
+    miss_probability; otherwise reported with range + N(0, sigma_r(r)^2), sigma_r(r) =
+    range_sigma_m + range_sigma_k_per_m r^2 (a stereo camera), and bearing + N(0, bearing_sigma^2). False alarms: Poisson(false_alarm_rate_hz / rate_hz) per frame, at
     positions uniform over the area of the field-of-view sector.
     """
     out: list[Detection] = []
@@ -65,7 +65,8 @@ def observe(north_m: float, east_m: float, yaw_rad: float,
             continue
         if cfg.miss_probability > 0.0 and rng.random() < cfg.miss_probability:
             continue
-        r_meas = r + rng.normal(0.0, cfg.range_sigma_m) if cfg.range_sigma_m > 0 else r
+        sigma_r = cfg.range_sigma_at(r)                  # stereo: grows with the range squared
+        r_meas = r + rng.normal(0.0, sigma_r) if sigma_r > 0 else r
         th_meas = theta + rng.normal(0.0, cfg.bearing_sigma_rad) if cfg.bearing_sigma_rad > 0 else theta
         out.append(Detection(obstacle_id=oid if cfg.report_ids else UINT16_MAX,
                              range_m=max(0.0, r_meas), bearing_rad=wrap_pi(th_meas),
@@ -113,7 +114,7 @@ def ray_cast_sectors_cm(north_m: float, east_m: float, yaw_rad: float,
                         rng: np.random.Generator) -> tuple[list[int], float, float]:
     """The depth camera's own OBSTACLE_DISTANCE (sensor.form sectors or both): sector_count bins
     over the field of view, each the distance (cm) along the ray through the bin's centre to the
-    nearest obstacle surface, from the TRUE pose. Per bin: range + N(0, range_sigma^2), missed
+    nearest obstacle surface, from the TRUE pose. Per bin: range + N(0, sigma_r(range)^2), missed
     with miss_probability; false alarms, Poisson(false_alarm_rate_hz / rate_hz) a frame, each in
     a random bin at a range uniform over the view's area, kept if nearer. Bins past sector_count
     are UINT16_MAX (unused). Returns (distances_cm (72), increment_deg, angle_offset_deg), the
@@ -140,7 +141,8 @@ def ray_cast_sectors_cm(north_m: float, east_m: float, yaw_rad: float,
             continue
         if cfg.miss_probability > 0.0 and rng.random() < cfg.miss_probability:
             continue
-        noisy = nearest + rng.normal(0.0, cfg.range_sigma_m) if cfg.range_sigma_m > 0 else nearest
+        sigma_r = cfg.range_sigma_at(nearest)
+        noisy = nearest + rng.normal(0.0, sigma_r) if sigma_r > 0 else nearest
         dist[i] = int(round(max(MIN_DISTANCE_M, noisy) * 100))
     if cfg.false_alarm_rate_hz > 0.0:
         for _ in range(int(rng.poisson(cfg.false_alarm_rate_hz / cfg.rate_hz))):

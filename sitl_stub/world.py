@@ -131,6 +131,12 @@ class SensorConfig:
     sector_message: bool = False
     form: str = "centres"          # centres | sectors (depth camera: ray-cast sectors only) | both
     sector_count: int = 72         # bins over the field of view (one OBSTACLE_DISTANCE holds 72)
+    # stereo range noise: sigma_r(r) = range_sigma_m + range_sigma_k_per_m * r^2 (k in 1/m)
+    range_sigma_k_per_m: float = 0.0
+
+    def range_sigma_at(self, range_m: float) -> float:
+        """Standard deviation of a range reported at true range ``range_m``, metres."""
+        return self.range_sigma_m + self.range_sigma_k_per_m * range_m * range_m
 
 
 SENSOR_FORMS = ("centres", "sectors", "both")
@@ -347,7 +353,8 @@ def _parse_sensor(r: _Reader) -> SensorConfig:
         sector_message=r.boolean("sector_message", False),
         form=_form(r),
         sector_count=r.integer("sector_count", minimum=2, maximum=72)
-        if "sector_count" in r.data else 72)
+        if "sector_count" in r.data else 72,
+        range_sigma_k_per_m=r.number("range_sigma_k_per_m", 0.0, minimum=0, maximum=1.0))
     r.finish()
     return cfg
 

@@ -28,7 +28,8 @@ class EstimatorOptions:
     A landmark corrects the pose only once established: past probation and seen
     ``established_sightings`` times. Arrival needs the pose's 2-sigma radius within
     ``arrival_tolerance_m``. ``lifecycle``: tentative / confirmed / deleted (core/lifecycle.py). Reactions to 'degraded' / 'lost': 'none', 'slow' (speed times
-    ``slow_factor``) or 'hold'.
+    ``slow_factor``) or 'hold'. ``range_sigma_k_per_m``: the filter's range sigma grows as
+    floor + k r^2 (core/range_noise.py; the floor is SlamNoise.range_sigma_m), 0: constant.
     """
     motion_model: str = "paper"
     velocity_noise: VelocityNoise = VelocityNoise(0.1, 0.1, math.radians(0.5))
@@ -43,6 +44,7 @@ class EstimatorOptions:
     lost_reaction: str = "hold"
     slow_factor: float = 0.5
     lifecycle: LifecycleParams = LifecycleParams()
+    range_sigma_k_per_m: float = 0.0
 
     def __post_init__(self) -> None:
         if self.motion_model not in MOTION_MODELS:

@@ -17,6 +17,8 @@ from companion.core.ekf_slam import AssociationGates, EkfSlam, Observation, Slam
 from companion.core.estimator_options import EstimatorOptions, moderate
 from companion.core.geometry import move, move_velocity, place, wrap_angle
 from companion.core.lifecycle import Lifecycle, expected_visible
+from companion.core.motion_evidence import is_straight_track
+from companion.core.range_noise import with_range_model
 from companion.core.guidance import GuidanceCommand, GuidanceParams, guide_apf, guide_cone
 from companion.core.arc import Motion, VehicleLimits
 from companion.core.look_at import LookAtParams, threat_to_watch
@@ -28,7 +30,10 @@ from companion.core.union import UnionParams, guide_union
 # (the pose is that close); a later one waits for the odometry that covers its time.
 STRATEGIES = ("cone", "union", "apf")
 MAX_MOVER_SPEED_MPS = 3.0      # an id-less young landmark may have moved this fast...
-MOVED_GATE_M = 1.5             # ...plus this, between two sightings
+MOVED_GATE_M = 1.5             # ...plus this, between two sightings...
+MOVED_MAX_GAP_S = 1.0          # ...at most this long apart (five frames missed in a row at 5 Hz):
+                               # a young landmark unseen for longer is no track to extend (its reach
+                               # would grow without bound and take another obstacle's sightings)
 FRAME_TIMING_UNCERTAINTY_S = 0.05   # half an odometry period
 SAME_TIME_TOLERANCE_S = 1e-3
 LOOK_COURSE_MIN_SPEED_MPS = 0.5   # slower, the velocity's direction is noise: the last choice's
@@ -108,6 +113,7 @@ class Navigator:
         self._frame_hits: set[int] = set()      # landmark keys detected in the current frame
         self._frame_near: set[int] = set()      # ... come near by an ambiguous observation
         self._frame_added: set[int] = set()
+        self._frame_taken: set[int] = set()     # ... planned for update by the frame's association
         self._guidance_keys: list = []          # landmark key of each landmark row of obstacles()
 
     # ------------------------------------------------------ timed inputs
@@ -307,12 +313,16 @@ class Navigator:
         used: set[int] = set()
         reports = []
         self._frame_hits, self._frame_near, self._frame_added = set(), set(), set()
+        noise = self.slam.noise
+        observations = with_range_model(observations, noise.range_sigma_m,
+                                        self.options.range_sigma_k_per_m, noise.bearing_sigma_rad)
         anonymous = [obs for obs in observations if obs.obstacle_id is None]
         ids = self.slam.landmark_ids()
         plans = {id(obs): (p.action, ids[p.index] if p.index is not None else None)
                  for obs, p in zip(anonymous, associate_frame(
                      self.slam, np.array([[o.range_m, o.bearing_rad] for o in anonymous]),
                      meas_covs=[o.meas_cov_array() for o in anonymous]))}
+        self._frame_taken = {key for action, key in plans.values() if action == "update"}
         for obs in observations:
             report = self._observe_one(obs, used, plans.get(id(obs)))
             if report.action in ("updated", "added") and report.landmark_index is not None:
@@ -392,18 +402,29 @@ class Navigator:
                 self.monitor.add(self.clock_s, report.nis, 2)
             self._note_young(key, obs, report.action)
             return report
-        key = self._moved_young(place(self._dr_pose, z))
-        if key is not None:
-            self._note_young(key, obs, "moved")
+        moved = self._moved_young(place(self._dr_pose, z))
+        if moved is not None:
+            self._relocate(moved, z, obs, used)
+            self._note_young(moved, obs, "moved")
             return UpdateReport("moved", None, None, None, None)
         if len(self.movers):
             point, cov = self._world_point(obs)
             track = self.movers.nearest(self.clock_s, point, cov)
             if track is not None:
                 return self._update_mover(track, obs)
-        if action == "ambiguous" and key in ids:
-            self._frame_near.add(key)
-            return UpdateReport("ambiguous", ids.index(key), None, None, None)
+        if action == "new":
+            # New against the map the frame began with; one born from this frame's own earlier
+            # observation may be what this one sees (two returns of one post): ambiguous then.
+            nis, _ = slam.nis_all(z, obs.meas_cov_array())
+            near = [i for i in range(len(nis)) if ids[i] in self._frame_added]
+            if near and float(np.min(nis[near])) <= slam.gates.new_landmark_nis:
+                action, key = "ambiguous", ids[near[int(np.argmin(nis[near]))]]
+        if action == "ambiguous":
+            # Never an update: the landmark it gated on is another observation's this frame.
+            if key in ids:
+                self._frame_near.add(key)
+                return UpdateReport("ambiguous", ids.index(key), None, None, None)
+            return UpdateReport("ambiguous", None, None, None, None)
         report = slam.add_landmark(z, None, obs.meas_cov_array()) if action == "new" \
             else slam.update(obs, exclude=used)
         if report.action == "added":
@@ -433,14 +454,35 @@ class Navigator:
             young.last_obs = obs
 
     def _moved_young(self, dr_point: np.ndarray) -> int | None:
-        """The young landmark whose last dead-reckoned point is near enough for a mover."""
+        """The young landmark whose last dead-reckoned point is near enough for a mover (one
+        already seen in this frame, or taken by another of its observations, is not: nothing
+        moves between two returns of one frame)."""
         best, best_gap = None, math.inf
         for key, young in self._young.items():
+            if key in self._frame_hits or key in self._frame_taken \
+                    or self.clock_s - young.times[-1] > MOVED_MAX_GAP_S:
+                continue
             gap = float(np.hypot(*(dr_point - young.points[-1])))
             reach = (MAX_MOVER_SPEED_MPS * (self.clock_s - young.times[-1]) + MOVED_GATE_M)
             if gap <= reach and gap < best_gap:
                 best, best_gap = key, gap
         return best
+
+    def _relocate(self, key: int, z: np.ndarray, obs: Observation, used: set[int]) -> None:
+        """A young landmark's object was seen where it has moved to: the landmark restarts there
+        (marginalised and added again under its key; on probation it never corrected the pose,
+        so nothing else learnt from where it was). A false alarm born beside a post that takes
+        the post's first sightings so stands on the post, not where the false alarm was, and
+        the post's next sightings update it; a mover is mapped where it is until demoted."""
+        slam = self.slam
+        index = slam.landmark_ids().index(key)
+        slam.remove_landmark(index)
+        shifted = {i - 1 if i > index else i for i in used if i != index}
+        used.clear()
+        used.update(shifted)
+        report = slam.add_landmark(z, None, obs.meas_cov_array())
+        slam.set_landmark_id(report.landmark_index, key)
+        used.add(report.landmark_index)
 
     def _demote(self, oid: int, obs: Observation, used: set[int] | None = None,
                 velocity: tuple[np.ndarray, float] | None = None) -> None:
@@ -479,12 +521,23 @@ class Navigator:
                 # for the unicycle, the vehicle's sideways motion it does not model (crab).
                 speed = float(np.hypot(*velocity)) - crab
                 moving = speed > params.speed_threshold_mps and speed > params.speed_sigmas * sigma
+                # ... and the points are one object's straight track, not clutter that a fit
+                # joins (two false alarms, or one beside a post's first sighting)
+                moving = moving and is_straight_track(
+                    young.times, young.points, self._track_sigmas(young))
             if moving:
                 # the track starts at the velocity that convicted it: a mover that leaves the
                 # view soon after is then predicted where it goes, not left standing
                 self._demote(oid, young.last_obs, velocity=(velocity, sigma))
                 detected.append(UpdateReport("mover_detected", None, None, None, oid))
         return detected
+
+    def _track_sigmas(self, young: _Young) -> np.ndarray:
+        """Each dead-reckoned point's sigma for the straight-track test: its own, plus the dead
+        reckoning's random walk over the track's span (what a line does not absorb of it)."""
+        span = young.times[-1] - young.times[0]
+        walk_var = self._dr_speed_sigma_mps() ** 2 * self.slam.noise.reference_dt_s * span
+        return np.sqrt(np.asarray(young.sigmas) ** 2 + walk_var)
 
     def _dr_speed_sigma_mps(self) -> float:
         if self.options.motion_model == "velocity_ned":

@@ -1,10 +1,13 @@
 """Frame association without ids: nearest pairs first, one observation per landmark, joint check."""
+import dataclasses
 import math
 
 import numpy as np
 
+from companion.config import load_scenario
 from companion.core.association import associate_frame
-from companion.core.ekf_slam import EkfSlam, SlamNoise
+from companion.core.ekf_slam import EkfSlam, Observation, SlamNoise
+from companion.simulation import make_navigator
 from companion.core.geometry import observe
 from tests.core.test_lifecycle import navigator, see
 
@@ -72,3 +75,100 @@ def test_navigator_adds_no_landmark_beside_a_taken_one():
     assert nav.slam.landmark_count == 1
     see(nav, (40.0, 0.0), (45.0, 12.0))          # a second post is a new landmark
     assert nav.slam.landmark_count == 2
+
+
+# ------------------------------------------------- at a real stereo camera's noise (realistic.yaml)
+REALISTIC_SIGMA_B = math.radians(1.0)
+
+
+def realistic_sigma_r(range_m):
+    return 0.01 + 0.0015 * range_m ** 2          # realistic.yaml: 1.36 m at 30 m
+
+
+def realistic_navigator():
+    """realistic.yaml's filter (R = diag((0.01 + 0.0015 r^2)^2, (1 deg)^2)), vehicle at (20, 0)
+    looking north, probation off (only association and the lifecycle decide)."""
+    scenario = load_scenario("config/scenarios/realistic.yaml")
+    est = dataclasses.replace(scenario.estimator_config(), established_sightings=1, mover_probation_s=0.0)
+    return make_navigator(dataclasses.replace(scenario, estimator=est))
+
+
+def noisy_frame(nav, rng, *points):
+    """One frame of id-less observations of world points from the true (= start) pose, with the
+    realistic camera's noise."""
+    frame = []
+    for p in points:
+        r, b = observe(np.array([20.0, 0.0, 0.0]), np.array(p, dtype=float))
+        frame.append(Observation(r + rng.normal(0.0, realistic_sigma_r(r)),
+                                 b + rng.normal(0.0, REALISTIC_SIGMA_B), None))
+    return frame
+
+
+def test_realistic_noise_two_returns_of_one_post_make_one_landmark():
+    # A post 30 m ahead answers twice in every frame (two detector boxes on one post), each
+    # with the range noise of 30 m (1.36 m): one updates it, the other is ambiguous, never new.
+    nav, rng = realistic_navigator(), np.random.default_rng(5)
+    actions = []
+    for _ in range(150):
+        actions += [r.action for r in nav.observe(noisy_frame(nav, rng, (50.0, 0.0), (50.0, 0.0)))]
+    assert nav.slam.landmark_count == 1
+    assert actions.count("added") == 1
+    assert actions.count("ambiguous") >= 140
+    assert np.hypot(*(nav.slam.landmarks()[0] - [50.0, 0.0])) < 1.0
+
+
+def test_realistic_noise_two_posts_close_together_keep_their_own_landmarks():
+    # Two posts 4 m apart across the line of sight at 30 m (7.6 deg apart: 7.6 bearing sigmas),
+    # their range errors 1.36 m each: each keeps one landmark, none merges or swaps.
+    nav, rng = realistic_navigator(), np.random.default_rng(6)
+    posts = [(50.0, -2.0), (50.0, 2.0)]
+    for _ in range(150):
+        nav.observe(noisy_frame(nav, rng, *posts))
+    landmarks = nav.slam.landmarks()
+    assert nav.slam.landmark_count == 2
+    for post in posts:
+        assert np.hypot(*(landmarks - post).T).min() < 1.0
+
+
+def test_realistic_noise_a_far_return_that_gates_on_a_taken_landmark_is_ambiguous():
+    # The range sigma at 35 m is 1.85 m: a second return 2.5 m behind the first gates on the
+    # landmark the first took. It is ambiguous, not a new landmark just behind the post.
+    nav = realistic_navigator()
+    nav.observe([Observation(35.0, 0.0, None)])
+    slam = nav.slam
+    near, behind = np.array([35.2, 0.0]), np.array([37.5, 0.0])
+    covs = [np.diag([realistic_sigma_r(z[0]) ** 2, REALISTIC_SIGMA_B ** 2]) for z in (near, behind)]
+    assert slam.nis_all(behind, covs[1])[0][0] < slam.gates.new_landmark_nis
+    pairings = associate_frame(slam, np.array([near, behind]), meas_covs=covs)
+    assert [(p.action, p.index) for p in pairings] == [("update", 0), ("ambiguous", 0)]
+    # And through the navigator: one landmark, the far return counted near it, not new.
+    reports = nav.observe([Observation(*near), Observation(*behind)])
+    assert [r.action for r in reports[:2]] == ["updated", "ambiguous"]
+    assert nav.slam.landmark_count == 1
+
+
+def test_two_returns_of_a_post_seen_first_in_one_frame_make_one_landmark():
+    # An empty map: both returns are 'new' against it; the second gates on the landmark the
+    # first has just started, so it is ambiguous, not a second landmark 2 m behind.
+    nav = realistic_navigator()
+    reports = nav.observe([Observation(30.0, 0.0, None), Observation(32.0, 0.01, None)])
+    assert [r.action for r in reports[:2]] == ["added", "ambiguous"]
+    assert nav.slam.landmark_count == 1
+    # Two posts 10 m apart seen first in one frame are two landmarks.
+    nav = realistic_navigator()
+    nav.observe([Observation(30.0, 0.0, None), Observation(30.0, math.radians(20.0), None)])
+    assert nav.slam.landmark_count == 2
+
+
+def test_an_ambiguous_observation_never_updates_the_landmark_another_one_took():
+    # The frame's first observation is ambiguous on the landmark its second takes: the first must
+    # not fall through to a nearest-neighbour update of it (two updates of one landmark).
+    nav = realistic_navigator()
+    nav.observe([Observation(30.0, 0.0, None)])
+    before = nav.slam.cov.copy()
+    reports = nav.observe([Observation(32.5, 0.0, None), Observation(30.1, 0.0, None)])
+    assert [r.action for r in reports[:2]] == ["ambiguous", "updated"]
+    single = realistic_navigator()
+    single.observe([Observation(30.0, 0.0, None)])
+    single.observe([Observation(30.1, 0.0, None)])
+    assert np.allclose(nav.slam.cov, single.slam.cov) and not np.allclose(nav.slam.cov, before)
