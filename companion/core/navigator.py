@@ -31,6 +31,8 @@ MOVED_GATE_M = 1.5             # ...plus this, between two sightings
 FRAME_TIMING_UNCERTAINTY_S = 0.05   # half an odometry period
 SAME_TIME_TOLERANCE_S = 1e-3
 MAX_PENDING_FRAMES = 8
+YOUNG_MOTION_SIGMAS = 3.0      # a landmark on probation flown around as a mover beyond this...
+YOUNG_MIN_SPAN_S = 0.3         # ...once its sightings span this long (navigator._young_motion)
 
 
 @dataclass(frozen=True)
@@ -455,8 +457,11 @@ class Navigator:
         detected = []
         crab = self._crab_speed()
         for oid, young in list(self._young.items()):
+            # established only once watched over min_span_s: a mover seen for half a second
+            # and then out of view must not be taken for a static obstacle
             if self.clock_s - young.times[0] > params.probation_s \
-                    and len(young.times) >= self.options.established_sightings:
+                    and len(young.times) >= self.options.established_sightings \
+                    and young.times[-1] - young.times[0] >= params.min_span_s:
                 del self._young[oid]             # watched long enough: established, static
                 continue
             # Only the motion test judges a young landmark: refused outliers early on are more
@@ -525,6 +530,41 @@ class Navigator:
             rel_covs = np.concatenate([rel_covs, [m.position_cov + pose_cov for m in movers]])
         return positions, velocities, rel_covs, movers
 
+    def _young_motion(self, obstacles: np.ndarray, velocities: np.ndarray | None,
+                      growth: np.ndarray | None) -> tuple[np.ndarray, np.ndarray | None,
+                                                          np.ndarray | None]:
+        """Guidance's view of the landmarks still on probation: one whose sightings so far
+        already show motion (YOUNG_MOTION_SIGMAS standard errors, short of the conviction's
+        speed_sigmas) is flown around as a mover at its apparent velocity, its radius growing by
+        that velocity's uncertainty, while the map keeps it as a landmark until it is judged.
+        A crossing mover in view for half a second, then out of it, stays in the decision where
+        it goes, not where it was seen. (The velocity choice only: rows as ``obstacles()``.)"""
+        rows = {key: row for row, key in enumerate(self._guidance_keys) if key in self._young}
+        crab = self._crab_speed()
+        found = []
+        for key, row in rows.items():
+            young = self._young[key]
+            if len(young.times) < 3 or young.times[-1] - young.times[0] < YOUNG_MIN_SPAN_S:
+                continue
+            velocity, sigma = apparent_velocity(np.array(young.times), np.array(young.points),
+                                                max(young.sigmas), self._dr_speed_sigma_mps(),
+                                                self.slam.noise.reference_dt_s)
+            speed = float(np.hypot(*velocity)) - crab
+            if speed > self.mover_params.speed_threshold_mps and speed > YOUNG_MOTION_SIGMAS * sigma:
+                found.append((row, velocity, sigma, float(np.mean(young.times))))
+        if not found:
+            return obstacles, velocities, growth
+        n = len(obstacles)
+        obstacles = np.array(obstacles, dtype=float)
+        velocities = np.zeros((n, 2)) if velocities is None else velocities.copy()
+        growth = np.zeros(n) if growth is None else growth.copy()
+        for row, velocity, sigma, mean_t in found:
+            # the landmark's static estimate sits near its sightings' mean: move it on from there
+            obstacles[row] = obstacles[row] + velocity * (self.clock_s - mean_t)
+            velocities[row] = velocity
+            growth[row] = self.union.mover_sigmas * sigma
+        return obstacles, velocities, growth
+
     def assess(self) -> Consistency:
         """The consistency monitor's verdict now; state changes are kept in ``health_changes``."""
         health = self.monitor.assess(self.clock_s, self.slam.pose_cov)
@@ -560,10 +600,12 @@ class Navigator:
         if self.strategy == "apf":
             command = guide_apf(pose, self.goal, obstacles, self.params)
         elif self.strategy == "union":
+            growth = mover_growth(movers, len(obstacles), self.union.mover_sigmas)
+            motion = self._motion(pose)
+            if motion is not None:
+                obstacles, velocities, growth = self._young_motion(obstacles, velocities, growth)
             command = guide_union(pose, self.goal, obstacles, rel_covs, self.params, self.union,
-                                  self._last_heading, self._side, velocities,
-                                  self._motion(pose), mover_growth(movers, len(obstacles),
-                                                                   self.union.mover_sigmas))
+                                  self._last_heading, self._side, velocities, motion, growth)
             self._side = command.side
         else:
             command = guide_cone(pose, self.goal, obstacles, rel_covs, self.params, t_s, velocities)
