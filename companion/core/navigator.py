@@ -12,6 +12,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from companion.core.association import associate_frame
+from companion.core.commitment import Commitment
+from companion.core.seen_space import SeenSpace
 from companion.core.consistency import Consistency, ConsistencyMonitor
 from companion.core.ekf_slam import AssociationGates, EkfSlam, Observation, SlamNoise, UpdateReport
 from companion.core.estimator_options import EstimatorOptions, moderate
@@ -81,6 +83,10 @@ class Navigator:
         self._velocity_now: tuple[float, float] | None = None    # speed, course: last odometry
         self._last_heading: float | None = None
         self._side = 0
+        self.commitment = Commitment()  # the velocity choice's side, kept by progress
+        # what the camera has looked at (velocity choice with a camera range only)
+        self.seen = SeenSpace(union.fov_rad, union.sensor_range_m) \
+            if limits is not None and union.sensor_range_m is not None else None
         self._urgent: tuple | None = None
         self.clock_s = 0.0                     # the filter's time: odometry time, or summed dt
         self.movers = MoverTracker(mover_params)
@@ -299,6 +305,8 @@ class Navigator:
         """
         used: set[int] = set()
         reports = []
+        if self.seen is not None:
+            self.seen.mark(self.slam.pose)
         self._frame_hits, self._frame_near, self._frame_added = set(), set(), set()
         anonymous = [obs for obs in observations if obs.obstacle_id is None]
         ids = self.slam.landmark_ids()
@@ -604,9 +612,16 @@ class Navigator:
             motion = self._motion(pose)
             if motion is not None:
                 obstacles, velocities, growth = self._young_motion(obstacles, velocities, growth)
+            goal_distance = float(np.hypot(*(self.goal - pose[:2])))
+            reach = None if motion is None else self.commitment.goal_reach_m(
+                goal_distance, self.params.safety_distance_m, self.union.sensor_range_m or 0.0)
             command = guide_union(pose, self.goal, obstacles, rel_covs, self.params, self.union,
-                                  self._last_heading, self._side, velocities, motion, growth)
+                                  self._last_heading, self.commitment.side if motion is not None
+                                  else self._side, velocities, motion, growth, reach or None,
+                                  self.seen)
             self._side = command.side
+            if motion is not None and command.mode != "arrived":
+                self.commitment = self.commitment.after(command.side, goal_distance)
         else:
             command = guide_cone(pose, self.goal, obstacles, rel_covs, self.params, t_s, velocities)
         self._last_heading = command.heading_rad

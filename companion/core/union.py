@@ -135,15 +135,19 @@ def guide_union(pose: np.ndarray, goal: np.ndarray, obstacles: np.ndarray,
                 rel_covs: np.ndarray | None, params: GuidanceParams, union: UnionParams,
                 previous_heading_rad: float | None, side: int = 0,
                 velocities: np.ndarray | None = None, motion: Motion | None = None,
-                growth_mps: np.ndarray | None = None) -> GuidanceCommand:
+                growth_mps: np.ndarray | None = None,
+                clear_reach_m: float | None = None, seen=None) -> GuidanceCommand:
     """Pick a speed and heading outside every relevant cone; see the module docstring.
 
     With ``motion`` (the vehicle's limits and velocity now), the choice is velocity_choice's:
     only commands whose flown path keeps every safety distance. ``growth_mps`` (n,): how fast
-    each obstacle's radius grows with time there (a mover's velocity uncertainty)."""
+    each obstacle's radius grows with time there (a mover's velocity uncertainty);
+    ``clear_reach_m``, ``seen``: see velocity_choice.choose_velocity (commitment.py,
+    seen_space.py)."""
     if motion is not None:
         return _guide_flyable(pose, goal, obstacles, rel_covs, params, union,
-                              previous_heading_rad, side, velocities, motion, growth_mps)
+                              previous_heading_rad, side, velocities, motion, growth_mps,
+                              clear_reach_m, seen)
     position = pose[:2]
     goal_distance, goal_heading = toward_goal(pose, goal)
     if goal_distance <= params.goal_radius_m:
@@ -292,7 +296,8 @@ def sensed_speed_limit(sensor_range_m: float, safety_distance_m: float,
 def _guide_flyable(pose: np.ndarray, goal: np.ndarray, obstacles: np.ndarray,
                    rel_covs: np.ndarray | None, params: GuidanceParams, union: UnionParams,
                    previous_heading_rad: float | None, side: int, velocities: np.ndarray | None,
-                   motion: Motion, growth_mps: np.ndarray | None) -> GuidanceCommand:
+                   motion: Motion, growth_mps: np.ndarray | None,
+                   clear_reach_m: float | None = None, seen=None) -> GuidanceCommand:
     from companion.core.velocity_choice import choose_velocity
     goal_distance, goal_heading = toward_goal(pose, goal)
     if goal_distance <= params.goal_radius_m:
@@ -322,4 +327,5 @@ def _guide_flyable(pose: np.ndarray, goal: np.ndarray, obstacles: np.ndarray,
     return choose_velocity(pose, goal_heading, goal_distance, cruise, reference, side,
                            obstacles[near], radii[near], near, params, union,
                            velocities[near] if moving else None, motion,
-                           None if growth_mps is None or not moving else growth_mps[near])
+                           None if growth_mps is None or not moving else growth_mps[near],
+                           clear_reach_m, seen)
