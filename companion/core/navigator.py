@@ -33,8 +33,22 @@ MOVED_GATE_M = 1.5             # ...plus this, between two sightings
 FRAME_TIMING_UNCERTAINTY_S = 0.05   # half an odometry period
 SAME_TIME_TOLERANCE_S = 1e-3
 MAX_PENDING_FRAMES = 8
-YOUNG_MOTION_SIGMAS = 3.0      # a landmark on probation flown around as a mover beyond this...
-YOUNG_MIN_SPAN_S = 0.3         # ...once its sightings span this long (navigator._young_motion)
+YOUNG_MIN_SPAN_S = 0.3         # a landmark on probation whose sightings span this long may be
+                               # flown around as a mover (navigator._young_motion)
+
+
+def mover_spread(movers: list, rows: int, sigmas: float) -> np.ndarray | None:
+    """(rows,) ``sigmas`` standard deviations of each mover track's position now, along its
+    worst axis (m), 0 for the static rows that come first; None without movers. A track out
+    of view coasts: its position's covariance, and so this, grows until it is seen again."""
+    if not movers:
+        return None
+    spread = np.zeros(rows)
+    for k, mover in enumerate(movers):
+        cov = np.asarray(mover.position_cov, dtype=float)
+        worst = float(np.linalg.eigvalsh(0.5 * (cov + cov.T))[-1])
+        spread[rows - len(movers) + k] = sigmas * math.sqrt(max(worst, 0.0))
+    return spread
 
 
 @dataclass(frozen=True)
@@ -465,11 +479,13 @@ class Navigator:
         detected = []
         crab = self._crab_speed()
         for oid, young in list(self._young.items()):
-            # established only once watched over min_span_s: a mover seen for half a second
-            # and then out of view must not be taken for a static obstacle
+            # established only once watched over min_span_s (or the whole probation, if
+            # shorter): a mover seen for half a second and then out of view must not be taken
+            # for a static obstacle
             if self.clock_s - young.times[0] > params.probation_s \
                     and len(young.times) >= self.options.established_sightings \
-                    and young.times[-1] - young.times[0] >= params.min_span_s:
+                    and young.times[-1] - young.times[0] >= min(params.min_span_s,
+                                                                params.probation_s):
                 del self._young[oid]             # watched long enough: established, static
                 continue
             # Only the motion test judges a young landmark: refused outliers early on are more
@@ -542,8 +558,8 @@ class Navigator:
                       growth: np.ndarray | None) -> tuple[np.ndarray, np.ndarray | None,
                                                           np.ndarray | None]:
         """Guidance's view of the landmarks still on probation: one whose sightings so far
-        already show motion (YOUNG_MOTION_SIGMAS standard errors, short of the conviction's
-        speed_sigmas) is flown around as a mover at its apparent velocity, its radius growing by
+        already show motion (the conviction's test, speed_sigmas standard errors, before its
+        min_span_s) is flown around as a mover at its apparent velocity, its radius growing by
         that velocity's uncertainty, while the map keeps it as a landmark until it is judged.
         A crossing mover in view for half a second, then out of it, stays in the decision where
         it goes, not where it was seen. (The velocity choice only: rows as ``obstacles()``.)"""
@@ -558,7 +574,8 @@ class Navigator:
                                                 max(young.sigmas), self._dr_speed_sigma_mps(),
                                                 self.slam.noise.reference_dt_s)
             speed = float(np.hypot(*velocity)) - crab
-            if speed > self.mover_params.speed_threshold_mps and speed > YOUNG_MOTION_SIGMAS * sigma:
+            if speed > self.mover_params.speed_threshold_mps \
+                    and speed > self.mover_params.speed_sigmas * sigma:
                 found.append((row, velocity, sigma, float(np.mean(young.times))))
         if not found:
             return obstacles, velocities, growth
@@ -618,7 +635,8 @@ class Navigator:
             command = guide_union(pose, self.goal, obstacles, rel_covs, self.params, self.union,
                                   self._last_heading, self.commitment.side if motion is not None
                                   else self._side, velocities, motion, growth, reach or None,
-                                  self.seen)
+                                  self.seen, mover_spread(movers, len(obstacles),
+                                                          self.union.mover_sigmas))
             self._side = command.side
             if motion is not None and command.mode != "arrived":
                 self.commitment = self.commitment.after(command.side, goal_distance)

@@ -49,7 +49,9 @@ def choose_velocity(pose: np.ndarray, goal_heading: float, goal_distance: float,
     (commitment.py: a side taken, no progress yet): a heading toward the goal (within 90
     degrees of it) counts as free only if no static cone blocks it this far ahead, unless no
     heading at all is free so. ``seen`` (seen_space.py): a command is flyable only if, flown
-    for ``union.perception_delay_s`` and then braked, it keeps d from space never seen.
+    for ``union.perception_delay_s`` and then braked, it keeps d from space never seen (only
+    where that stopping distance exceeds d: at 5 m/s, 1 s and 2.5 m/s^2 it is 10 m, and an
+    obstacle that shows up is never nearer than it before the vehicle has stopped).
     """
     position = pose[:2]
     yaw = float(pose[2])
@@ -74,7 +76,8 @@ def choose_velocity(pose: np.ndarray, goal_heading: float, goal_distance: float,
         rolled = fly_out(position, motion, candidates[indices], np.full(len(indices), speed),
                          union.lookahead_s, union.fov_rad)
         margin = clearance(rolled, obstacles, radii, velocities, growth_mps, position)
-        if seen is not None:
+        if seen is not None and _stopping_m(speed, motion, union) \
+                > params.safety_distance_m:
             margin = np.minimum(margin, _seen_margin(seen, position, motion, candidates[indices],
                                                      speed, union, params.safety_distance_m))
         return margin + np.where(indices == 1, KEEP_TOLERANCE_M, 0.0)
@@ -127,6 +130,11 @@ def choose_velocity(pose: np.ndarray, goal_heading: float, goal_distance: float,
         if margin[k] > best_margin + 0.5:       # a slower option wins ties: less to go wrong
             best_margin, best = float(margin[k]), (int(everything[k]), speed)
     return command(best[0], best[1], "hold")
+
+
+def _stopping_m(speed: float, motion: Motion, union: UnionParams) -> float:
+    """How far the vehicle goes before a new obstacle enters the decision and it has stopped."""
+    return speed * union.perception_delay_s + speed * speed / (2.0 * motion.max_accel_mps2)
 
 
 def _seen_margin(seen: SeenSpace, position: np.ndarray, motion: Motion, headings: np.ndarray,
