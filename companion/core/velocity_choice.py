@@ -98,6 +98,7 @@ def choose_velocity(pose: np.ndarray, goal_heading: float, goal_distance: float,
                                None if urgent is None else int(near[urgent]), ttca,
                                side=int(np.sign(offset[index])) or 1 if index else 0)
 
+    away: GuidanceCommand | None = None
     for fraction in SPEED_FRACTIONS:
         speed = cruise * fraction
         blocked = blocking(candidates, position, obstacles, radii, params.eta,
@@ -115,8 +116,19 @@ def choose_velocity(pose: np.ndarray, goal_heading: float, goal_distance: float,
             return command(0, speed, "avoid")
         margin = reachable(free, speed)
         ok = free[margin >= 0.0]
-        if ok.size:
+        if ok.size == 0:
+            continue
+        if velocities is None or abs(offset[ok[0]]) < 0.5 * np.pi:
             return command(int(ok[0]), speed, "avoid")
+        # Flying away from the goal to keep clear of a mover: at full speed beside a crossing
+        # mover that heading can stay free for as long as the mover goes on (traffic worlds: an
+        # escort 300 m off the way); a slower speed that makes headway, behind it, comes first.
+        away = away or command(int(ok[0]), speed, "avoid")
+        forward = ok[np.abs(offset[ok]) < 0.5 * np.pi]
+        if forward.size:
+            return command(int(forward[0]), speed, "avoid")
+    if away is not None:
+        return away
     everything = np.argsort(cost, kind="stable")
     for speed in (0.25 * cruise, 0.0):
         margin = flyable(everything, speed)
