@@ -37,20 +37,6 @@ YOUNG_MIN_SPAN_S = 0.3         # a landmark on probation whose sightings span th
                                # flown around as a mover (navigator._young_motion)
 
 
-def mover_spread(movers: list, rows: int, sigmas: float) -> np.ndarray | None:
-    """(rows,) ``sigmas`` standard deviations of each mover track's position now, along its
-    worst axis (m), 0 for the static rows that come first; None without movers. A track out
-    of view coasts: its position's covariance, and so this, grows until it is seen again."""
-    if not movers:
-        return None
-    spread = np.zeros(rows)
-    for k, mover in enumerate(movers):
-        cov = np.asarray(mover.position_cov, dtype=float)
-        worst = float(np.linalg.eigvalsh(0.5 * (cov + cov.T))[-1])
-        spread[rows - len(movers) + k] = sigmas * math.sqrt(max(worst, 0.0))
-    return spread
-
-
 @dataclass(frozen=True)
 class UrgencyChange:
     """Emitted when the most urgent obstacle changes: became urgent (index) or cleared (None)."""
@@ -635,8 +621,7 @@ class Navigator:
             command = guide_union(pose, self.goal, obstacles, rel_covs, self.params, self.union,
                                   self._last_heading, self.commitment.side if motion is not None
                                   else self._side, velocities, motion, growth, reach or None,
-                                  self.seen, mover_spread(movers, len(obstacles),
-                                                          self.union.mover_sigmas))
+                                  self.seen)
             self._side = command.side
             if motion is not None and command.mode != "arrived":
                 self.commitment = self.commitment.after(command.side, goal_distance)

@@ -147,7 +147,9 @@ def guide_union(pose: np.ndarray, goal: np.ndarray, obstacles: np.ndarray,
     ``clear_reach_m``, ``seen``: see velocity_choice.choose_velocity (commitment.py,
     seen_space.py). ``spread_m`` (n,): how far each obstacle may be from its estimate now (a
     mover's track out of view: its position's sigma), added to its safety distance there (at
-    most MAX_SPREAD_M)."""
+    most MAX_SPREAD_M). The navigator does not pass it: in cluttered worlds the false tracks
+    that clutter leaves, widened so, lengthened the routes (20 runs: 0.90 against 0.95); it
+    had taken moving seed 43 clear of a track 9 m off."""
     if motion is not None:
         return _guide_flyable(pose, goal, obstacles, rel_covs, params, union,
                               previous_heading_rad, side, velocities, motion, growth_mps,
