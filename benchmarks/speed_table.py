@@ -5,7 +5,8 @@
 A row ``KIND@V+gaps`` sets avoidance.gap_margin_m to 1 m. Each row flies `companion simulate --random-worlds KIND --speed-mps V --runs N` (seeds 0..N-1)
 on config/scenarios/paper.yaml. Columns: success (goal reached with clearance >= 0.95 d),
 collisions (true distance below the obstacle's radius), closest approach p5 and min, median
-detour (path length minus the straight line to the goal radius), wall time.
+detour (path length minus the straight line to the goal radius), wall time. Rows run one after
+another; on a shared machine start two or three processes with their own --rows.
 """
 from __future__ import annotations
 

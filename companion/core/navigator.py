@@ -12,6 +12,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from companion.core.association import associate_frame
+from companion.core.commitment import Commitment
+from companion.core.seen_space import SeenSpace
 from companion.core.consistency import Consistency, ConsistencyMonitor
 from companion.core.ekf_slam import AssociationGates, EkfSlam, Observation, SlamNoise, UpdateReport
 from companion.core.estimator_options import EstimatorOptions, moderate
@@ -39,6 +41,8 @@ SAME_TIME_TOLERANCE_S = 1e-3
 LOOK_COURSE_MIN_SPEED_MPS = 0.5   # slower, the velocity's direction is noise: the last choice's
 NO_LOOK_MODES = ("arrived", "arrival_uncertain")
 MAX_PENDING_FRAMES = 8
+YOUNG_MIN_SPAN_S = 0.3         # a landmark on probation whose sightings span this long may be
+                               # flown around as a mover (navigator._young_motion)
 
 
 @dataclass(frozen=True)
@@ -93,6 +97,10 @@ class Navigator:
         self.watching: int | None = None    # track id of the mover the nose points at, if any
         self._last_heading: float | None = None
         self._side = 0
+        self.commitment = Commitment()  # the velocity choice's side, kept by progress
+        # what the camera has looked at (velocity choice with a camera range only)
+        self.seen = SeenSpace(union.fov_rad, union.sensor_range_m) \
+            if limits is not None and union.sensor_range_m is not None else None
         self._urgent: tuple | None = None
         self.clock_s = 0.0                     # the filter's time: odometry time, or summed dt
         self.movers = MoverTracker(mover_params)
@@ -312,6 +320,8 @@ class Navigator:
         """
         used: set[int] = set()
         reports = []
+        if self.seen is not None:
+            self.seen.mark(self.slam.pose)
         self._frame_hits, self._frame_near, self._frame_added = set(), set(), set()
         noise = self.slam.noise
         observations = with_range_model(observations, noise.range_sigma_m,
@@ -506,8 +516,13 @@ class Navigator:
         detected = []
         crab = self._crab_speed()
         for oid, young in list(self._young.items()):
+            # established only once watched over min_span_s (or the whole probation, if
+            # shorter): a mover seen for half a second and then out of view must not be taken
+            # for a static obstacle
             if self.clock_s - young.times[0] > params.probation_s \
-                    and len(young.times) >= self.options.established_sightings:
+                    and len(young.times) >= self.options.established_sightings \
+                    and young.times[-1] - young.times[0] >= min(params.min_span_s,
+                                                                params.probation_s):
                 del self._young[oid]             # watched long enough: established, static
                 continue
             # Only the motion test judges a young landmark: refused outliers early on are more
@@ -587,6 +602,42 @@ class Navigator:
             rel_covs = np.concatenate([rel_covs, [m.position_cov + pose_cov for m in movers]])
         return positions, velocities, rel_covs, movers
 
+    def _young_motion(self, obstacles: np.ndarray, velocities: np.ndarray | None,
+                      growth: np.ndarray | None) -> tuple[np.ndarray, np.ndarray | None,
+                                                          np.ndarray | None]:
+        """Guidance's view of the landmarks still on probation: one whose sightings so far
+        already show motion (the conviction's test, speed_sigmas standard errors, before its
+        min_span_s) is flown around as a mover at its apparent velocity, its radius growing by
+        that velocity's uncertainty, while the map keeps it as a landmark until it is judged.
+        A crossing mover in view for half a second, then out of it, stays in the decision where
+        it goes, not where it was seen. (The velocity choice only: rows as ``obstacles()``.)"""
+        rows = {key: row for row, key in enumerate(self._guidance_keys) if key in self._young}
+        crab = self._crab_speed()
+        found = []
+        for key, row in rows.items():
+            young = self._young[key]
+            if len(young.times) < 3 or young.times[-1] - young.times[0] < YOUNG_MIN_SPAN_S:
+                continue
+            velocity, sigma = apparent_velocity(np.array(young.times), np.array(young.points),
+                                                max(young.sigmas), self._dr_speed_sigma_mps(),
+                                                self.slam.noise.reference_dt_s)
+            speed = float(np.hypot(*velocity)) - crab
+            if speed > self.mover_params.speed_threshold_mps \
+                    and speed > self.mover_params.speed_sigmas * sigma:
+                found.append((row, velocity, sigma, float(np.mean(young.times))))
+        if not found:
+            return obstacles, velocities, growth
+        n = len(obstacles)
+        obstacles = np.array(obstacles, dtype=float)
+        velocities = np.zeros((n, 2)) if velocities is None else velocities.copy()
+        growth = np.zeros(n) if growth is None else growth.copy()
+        for row, velocity, sigma, mean_t in found:
+            # the landmark's static estimate sits near its sightings' mean: move it on from there
+            obstacles[row] = obstacles[row] + velocity * (self.clock_s - mean_t)
+            velocities[row] = velocity
+            growth[row] = self.union.mover_sigmas * sigma
+        return obstacles, velocities, growth
+
     def assess(self) -> Consistency:
         """The consistency monitor's verdict now; state changes are kept in ``health_changes``."""
         health = self.monitor.assess(self.clock_s, self.slam.pose_cov)
@@ -647,11 +698,20 @@ class Navigator:
         if self.strategy == "apf":
             command = guide_apf(pose, self.goal, obstacles, self.params)
         elif self.strategy == "union":
+            growth = mover_growth(movers, len(obstacles), self.union.mover_sigmas)
+            motion = self._motion(pose)
+            if motion is not None:
+                obstacles, velocities, growth = self._young_motion(obstacles, velocities, growth)
+            goal_distance = float(np.hypot(*(self.goal - pose[:2])))
+            reach = None if motion is None else self.commitment.goal_reach_m(
+                goal_distance, self.params.safety_distance_m, self.union.sensor_range_m or 0.0)
             command = guide_union(pose, self.goal, obstacles, rel_covs, self.params, self.union,
-                                  self._last_heading, self._side, velocities,
-                                  self._motion(pose), mover_growth(movers, len(obstacles),
-                                                                   self.union.mover_sigmas))
+                                  self._last_heading, self.commitment.side if motion is not None
+                                  else self._side, velocities, motion, growth, reach or None,
+                                  self.seen)
             self._side = command.side
+            if motion is not None and command.mode != "arrived":
+                self.commitment = self.commitment.after(command.side, goal_distance)
         else:
             command = guide_cone(pose, self.goal, obstacles, rel_covs, self.params, t_s, velocities)
         self._last_heading = command.heading_rad

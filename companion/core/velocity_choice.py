@@ -25,6 +25,7 @@ import numpy as np
 from companion.core.arc import Motion, clearance, fly_out, margins_by_obstacle
 from companion.core.geometry import wrap_angles
 from companion.core.guidance import GuidanceCommand, GuidanceParams
+from companion.core.seen_space import SeenSpace
 from companion.core.union import (Geometry, UnionParams, blocking, candidate_headings,
                                   turn_speed_factor)
 
@@ -38,11 +39,19 @@ def choose_velocity(pose: np.ndarray, goal_heading: float, goal_distance: float,
                     reference: float, side: int, obstacles: np.ndarray, radii: np.ndarray,
                     near: np.ndarray, params: GuidanceParams, union: UnionParams,
                     velocities: np.ndarray | None, motion: Motion,
-                    growth_mps: np.ndarray | None = None) -> GuidanceCommand:
+                    growth_mps: np.ndarray | None = None,
+                    clear_reach_m: float | None = None,
+                    seen: SeenSpace | None = None) -> GuidanceCommand:
     """A speed and heading outside every cone whose path is flyable; see the module docstring.
 
     obstacles (n,2), radii (n,), velocities (n,2) or None, growth_mps (n,) or None: the near
-    obstacles only; ``near`` (n,) their indices in the caller's list.
+    obstacles only; ``near`` (n,) their indices in the caller's list. ``clear_reach_m``
+    (commitment.py: a side taken, no progress yet): a heading toward the goal (within 90
+    degrees of it) counts as free only if no static cone blocks it this far ahead, unless no
+    heading at all is free so. ``seen`` (seen_space.py): a command is flyable only if, flown
+    for ``union.perception_delay_s`` and then braked, it keeps d from space never seen (only
+    where that stopping distance exceeds d: at 5 m/s, 1 s and 2.5 m/s^2 it is 10 m, and an
+    obstacle that shows up is never nearer than it before the vehicle has stopped).
     """
     position = pose[:2]
     yaw = float(pose[2])
@@ -52,6 +61,8 @@ def choose_velocity(pose: np.ndarray, goal_heading: float, goal_distance: float,
     candidates = np.concatenate([candidate_headings(goal_heading, reference, geometry,
                                                     velocities is not None), GRID, gates])
     candidates = wrap_angles(candidates)
+    far_blocked = _far_blocked(candidates, goal_heading, position, obstacles, radii, velocities,
+                               params.eta, clear_reach_m)
     through_gate = np.zeros(len(candidates), dtype=bool)
     if gates.size:
         through_gate[-gates.size:] = True
@@ -62,6 +73,17 @@ def choose_velocity(pose: np.ndarray, goal_heading: float, goal_distance: float,
 
     def reachable(indices: np.ndarray, speed: float) -> np.ndarray:
         """Each command's worst margin (m), the previous heading's raised by the tolerance."""
+        rolled = fly_out(position, motion, candidates[indices], np.full(len(indices), speed),
+                         union.lookahead_s, union.fov_rad)
+        margin = clearance(rolled, obstacles, radii, velocities, growth_mps, position)
+        if seen is not None and _stopping_m(speed, motion, union) \
+                > params.safety_distance_m:
+            margin = np.minimum(margin, _seen_margin(seen, position, motion, candidates[indices],
+                                                     speed, union, params.safety_distance_m))
+        return margin + np.where(indices == 1, KEEP_TOLERANCE_M, 0.0)
+
+    def flyable(indices: np.ndarray, speed: float) -> np.ndarray:
+        """The fallbacks' margin: the mapped obstacles alone."""
         rolled = fly_out(position, motion, candidates[indices], np.full(len(indices), speed),
                          union.lookahead_s, union.fov_rad)
         margin = clearance(rolled, obstacles, radii, velocities, growth_mps, position)
@@ -76,6 +98,7 @@ def choose_velocity(pose: np.ndarray, goal_heading: float, goal_distance: float,
                                None if urgent is None else int(near[urgent]), ttca,
                                side=int(np.sign(offset[index])) or 1 if index else 0)
 
+    away: GuidanceCommand | None = None
     for fraction in SPEED_FRACTIONS:
         speed = cruise * fraction
         blocked = blocking(candidates, position, obstacles, radii, params.eta,
@@ -85,26 +108,73 @@ def choose_velocity(pose: np.ndarray, goal_heading: float, goal_distance: float,
         free = np.flatnonzero(~blocked | through_gate)
         if free.size == 0:
             continue
+        committed = free[~far_blocked[free] | through_gate[free]]
+        if committed.size:
+            free = committed
         free = free[np.argsort(cost[free], kind="stable")]
         if free[0] == 0 and reachable(free[:1], speed)[0] >= 0.0:
             return command(0, speed, "avoid")
         margin = reachable(free, speed)
         ok = free[margin >= 0.0]
-        if ok.size:
+        if ok.size == 0:
+            continue
+        if velocities is None or abs(offset[ok[0]]) < 0.5 * np.pi:
             return command(int(ok[0]), speed, "avoid")
+        # Flying away from the goal to keep clear of a mover: at full speed beside a crossing
+        # mover that heading can stay free for as long as the mover goes on (traffic worlds: an
+        # escort 300 m off the way); a slower speed that makes headway, behind it, comes first.
+        away = away or command(int(ok[0]), speed, "avoid")
+        forward = ok[np.abs(offset[ok]) < 0.5 * np.pi]
+        if forward.size:
+            return command(int(forward[0]), speed, "avoid")
+    if away is not None:
+        return away
     everything = np.argsort(cost, kind="stable")
     for speed in (0.25 * cruise, 0.0):
-        margin = reachable(everything, speed)
+        margin = flyable(everything, speed)
         ok = everything[margin >= 0.0]
         if ok.size:
             return command(int(ok[0]), speed, "slow" if speed else "stop")
     best_margin, best = -np.inf, (0, 0.0)
     for speed in (0.0, 0.5 * cruise, cruise):
-        margin = reachable(everything, speed)
+        margin = flyable(everything, speed)
         k = int(np.argmax(margin))
         if margin[k] > best_margin + 0.5:       # a slower option wins ties: less to go wrong
             best_margin, best = float(margin[k]), (int(everything[k]), speed)
     return command(best[0], best[1], "hold")
+
+
+def _stopping_m(speed: float, motion: Motion, union: UnionParams) -> float:
+    """How far the vehicle goes before a new obstacle enters the decision and it has stopped."""
+    return speed * union.perception_delay_s + speed * speed / (2.0 * motion.max_accel_mps2)
+
+
+def _seen_margin(seen: SeenSpace, position: np.ndarray, motion: Motion, headings: np.ndarray,
+                 speed: float, union: UnionParams, d: float) -> np.ndarray:
+    """(J,) how far each command, flown until a new obstacle would enter the decision and then
+    braked, stays beyond d from space never seen (less what it lacks already here)."""
+    rolled = fly_out(position, motion, headings, np.full(len(headings), speed),
+                     union.perception_delay_s, union.fov_rad)
+    need = d - seen.cell_m          # the grid's resolution: straight ahead at the camera's
+    now = float(seen.margin(position[None, :])[0]) - need       # speed cap must pass
+    return seen.margin(rolled.positions).min(axis=1) - need - min(now, 0.0)
+
+
+def _far_blocked(candidates: np.ndarray, goal_heading: float, position: np.ndarray,
+                 obstacles: np.ndarray, radii: np.ndarray, velocities: np.ndarray | None,
+                 eta: float, clear_reach_m: float | None) -> np.ndarray:
+    """(K,) True where a heading toward the goal meets a static cone within ``clear_reach_m``."""
+    far = np.zeros(len(candidates), dtype=bool)
+    if clear_reach_m is None or len(obstacles) == 0:
+        return far
+    static = np.ones(len(obstacles), dtype=bool) if velocities is None \
+        else ~np.any(velocities != 0.0, axis=1)
+    forward = np.abs(wrap_angles(candidates - goal_heading)) < 0.5 * np.pi - 1e-6
+    if not static.any() or not forward.any():
+        return far
+    far[forward] = blocking(candidates[forward], position, obstacles[static], radii[static], eta,
+                            clear_reach_m).any(axis=1)
+    return far
 
 
 def _most_urgent(position: np.ndarray, motion: Motion, goal_heading: float, cruise: float,

@@ -1,0 +1,85 @@
+"""The space the camera has looked at: a coarse grid, for stopping inside what has been seen.
+
+The velocity choice caps the speed so that the vehicle stops d short of the camera's range
+(union.sensed_speed_limit), which holds flying straight. Turning hard at speed, the path swings
+into space the 90 degree camera has not looked at yet: an obstacle there shows up 15 to 20 m
+off, with no room left to stop (dense worlds at 10 and 15 m/s passed posts at 8.3 and 9.4 m
+so). Here every camera frame marks the cells of its field of view (range and angle, occlusion
+ignored) as seen, and ``margin`` tells how far points are from the nearest cell never seen:
+a command is flyable only if, flown for the time a new obstacle takes to enter the decision and
+then braked to a stop, it keeps d from unseen space (velocity_choice.py).
+
+Pure numpy and scipy; positions north/east metres, angles radians.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.ndimage import distance_transform_edt
+
+CELL_M = 2.0
+GROW_CELLS = 64                  # the grid grows by at least this many cells when it must
+
+
+class SeenSpace:
+    """Cells the camera has had in view. ``margin`` answers in metres."""
+
+    def __init__(self, fov_rad: float, range_m: float, cell_m: float = CELL_M) -> None:
+        self.fov_rad = fov_rad
+        self.range_m = range_m
+        self.cell_m = cell_m
+        self._origin = np.zeros(2)                     # world position of cell (0, 0)'s corner
+        self._seen = np.zeros((0, 0), dtype=bool)
+        self._field: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+
+    def mark(self, pose: np.ndarray) -> None:
+        """One camera frame from ``pose`` (north, east, yaw): its field of view is seen."""
+        x, y, yaw = float(pose[0]), float(pose[1]), float(pose[2])
+        r = self.range_m
+        self._cover(np.array([x - r, y - r]), np.array([x + r, y + r]))
+        lo = np.floor((np.array([x - r, y - r]) - self._origin) / self.cell_m).astype(int)
+        hi = np.ceil((np.array([x + r, y + r]) - self._origin) / self.cell_m).astype(int)
+        i = np.arange(lo[0], hi[0])
+        j = np.arange(lo[1], hi[1])
+        cx = self._origin[0] + (i + 0.5) * self.cell_m - x
+        cy = self._origin[1] + (j + 0.5) * self.cell_m - y
+        dx, dy = np.meshgrid(cx, cy, indexing="ij")
+        dist = np.hypot(dx, dy)
+        off = np.abs(np.remainder(np.arctan2(dy, dx) - yaw + math.pi, 2 * math.pi) - math.pi)
+        # a cell counts once its centre is in view, or it holds the camera itself
+        view = (dist <= r) & ((off <= 0.5 * self.fov_rad) | (dist <= self.cell_m))
+        self._seen[lo[0]:hi[0], lo[1]:hi[1]] |= view
+        self._field = None
+
+    def _cover(self, low: np.ndarray, high: np.ndarray) -> None:
+        """Grow the grid so that it holds the box low..high (world metres)."""
+        if self._seen.size == 0:
+            self._origin = np.floor(low / self.cell_m) * self.cell_m - GROW_CELLS * self.cell_m
+            n = int(math.ceil((high - low).max() / self.cell_m)) + 2 * GROW_CELLS
+            self._seen = np.zeros((n, n), dtype=bool)
+            return
+        shape = np.array(self._seen.shape)
+        lo = np.floor((low - self._origin) / self.cell_m).astype(int)
+        hi = np.ceil((high - self._origin) / self.cell_m).astype(int)
+        pad_lo = np.where(lo < 0, -lo + GROW_CELLS, 0)
+        pad_hi = np.where(hi > shape, hi - shape + GROW_CELLS, 0)
+        if pad_lo.any() or pad_hi.any():
+            self._seen = np.pad(self._seen, ((pad_lo[0], pad_hi[0]), (pad_lo[1], pad_hi[1])))
+            self._origin = self._origin - pad_lo * self.cell_m
+
+    def margin(self, points_ne_m: np.ndarray) -> np.ndarray:
+        """(...,) each point's distance (m) to the nearest cell never seen; 0 in unseen cells
+        and outside the grid."""
+        if self._seen.size == 0:
+            return np.zeros(points_ne_m.shape[:-1])
+        if self._field is None:
+            # distance from each seen cell's centre to the nearest unseen cell's edge
+            padded = np.pad(self._seen, 1)
+            self._field = distance_transform_edt(padded)[1:-1, 1:-1] * self.cell_m \
+                - 0.5 * self.cell_m
+        index = np.floor((points_ne_m - self._origin) / self.cell_m).astype(int)
+        inside = (index >= 0).all(axis=-1) & (index < np.array(self._seen.shape)).all(axis=-1)
+        clipped = np.clip(index, 0, np.array(self._seen.shape) - 1)
+        values = self._field[clipped[..., 0], clipped[..., 1]]
+        return np.where(inside, np.maximum(values, 0.0), 0.0)
