@@ -94,7 +94,10 @@ class Navigator:
         self.limits = limits            # union: choose velocities the vehicle can fly (arc.py)
         self._velocity_now: tuple[float, float] | None = None    # speed, course: last odometry
         self.look_at = look_at
-        self.watching: int | None = None    # track id of the mover the nose points at, if any
+        # what the nose points at, if anything: a mover's track id, or ("landmark", key) for a
+        # landmark on probation already flown around as a mover (_young_motion)
+        self.watching: int | tuple | None = None
+        self._young_movers: list[tuple] = []  # (key, position, velocity) of those, this decision
         self._last_heading: float | None = None
         self._side = 0
         self.commitment = Commitment()  # the velocity choice's side, kept by progress
@@ -625,6 +628,7 @@ class Navigator:
             if speed > self.mover_params.speed_threshold_mps \
                     and speed > self.mover_params.speed_sigmas * sigma:
                 found.append((row, velocity, sigma, float(np.mean(young.times))))
+        self._young_movers = []
         if not found:
             return obstacles, velocities, growth
         n = len(obstacles)
@@ -636,6 +640,7 @@ class Navigator:
             obstacles[row] = obstacles[row] + velocity * (self.clock_s - mean_t)
             velocities[row] = velocity
             growth[row] = self.union.mover_sigmas * sigma
+            self._young_movers.append((self._guidance_keys[row], obstacles[row].copy(), velocity))
         return obstacles, velocities, growth
 
     def assess(self) -> Consistency:
@@ -680,21 +685,27 @@ class Navigator:
     def _watch(self, command: GuidanceCommand, movers: list) -> GuidanceCommand:
         """The command with the nose toward the mover to watch, if any (look_at)."""
         self.watching = None
-        if self.look_at is None or not movers or command.mode in NO_LOOK_MODES \
+        # the tracks, and the landmarks on probation the velocity choice flies round as movers (a
+        # crossing mover seen for a second before it left the view is one of those, not a track)
+        candidates = [(m.track_id, m.position_ne_m, m.velocity_ne_mps) for m in movers] + \
+            [(("landmark", key), position, velocity)
+             for key, position, velocity in self._young_movers]
+        if self.look_at is None or not candidates or command.mode in NO_LOOK_MODES \
                 or command.mode.startswith("hold: "):
             return command
         watch = threat_to_watch(self.slam.pose[:2], command.heading_rad, command.speed_mps,
-                                np.array([m.position_ne_m for m in movers]),
-                                np.array([m.velocity_ne_mps for m in movers]), self.look_at)
+                                np.array([c[1] for c in candidates]),
+                                np.array([c[2] for c in candidates]), self.look_at)
         if watch is None:
             return command
-        self.watching = movers[watch.index].track_id
+        self.watching = candidates[watch.index][0]
         return replace(command, yaw_rad=watch.bearing_rad)
 
     def decide(self, t_s: float) -> tuple[GuidanceCommand, UrgencyChange | None]:
         """Guidance on the current estimate, and the urgency change it implies, if any."""
         pose = self._flight_pose(self.slam.pose)
         obstacles, velocities, rel_covs, movers = self.obstacles()
+        self._young_movers = []
         if self.strategy == "apf":
             command = guide_apf(pose, self.goal, obstacles, self.params)
         elif self.strategy == "union":
