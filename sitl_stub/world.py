@@ -309,11 +309,11 @@ def _parse_world(r: _Reader) -> WorldConfig:
             vel_east_mps=ob.number("vel_east_mps", 0.0)))
         ob.finish()
     found = _parse_walls(r, seen) + _parse_buildings(r, seen)
-    for shape, where in found:
+    for shape, _ in found:
         for key, (n, e) in (("start", (start.north_m, start.east_m)),
                             ("goal", (goal.north_m, goal.east_m))):
             if shapes.surface_distance_m(n, e, list(shape.outline)) <= 0.0:
-                raise where.error(f"the {key} lies inside {shape.kind} {shape.obstacle_id}")
+                raise r.error(f"the {key} lies inside {shape.kind} {shape.obstacle_id}", key)
     r.finish()
     return WorldConfig(origin=origin, start=start, goal=goal, obstacles=tuple(obstacles),
                        shapes=tuple(shape for shape, _ in found))
