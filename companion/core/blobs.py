@@ -35,6 +35,7 @@ class BlobParams:
     compact_width_m: float = 6.0          # the widest post (3 m radius in the random worlds)
     chain_spacing_m: float = 4.0          # a choice: under half the 10 m safety distance
     correlation_inflation: float = 4.0
+    corner_tolerance_m: float = 0.5      # a choice: 5 sigma of the 0.1 m range noise
 
     def __post_init__(self) -> None:
         if self.chain_spacing_m <= 0 or self.compact_width_m <= 0 or self.max_jump_m <= 0:
@@ -106,15 +107,41 @@ def _compact(surface_m: float, bearing_rad: float, half_rad: float, bins: int,
     return Observation(surface_m + radius, bearing_rad, None, ((var_r, 0.0), (0.0, var_b)))
 
 
+def corner_indices(points: np.ndarray, tolerance_m: float) -> list[int]:
+    """The ends and corners of a polyline of surface points (k, 2): Douglas-Peucker, splitting
+    where a point lies farther than ``tolerance_m`` from the chord of its run. Sorted indices."""
+    keep = {0, len(points) - 1}
+    runs = [(0, len(points) - 1)]
+    while runs:
+        a, b = runs.pop()
+        if b - a < 2:
+            continue
+        chord = points[b] - points[a]
+        length = float(np.hypot(*chord))
+        rel = points[a + 1:b] - points[a]
+        off = (np.abs(rel[:, 0] * chord[1] - rel[:, 1] * chord[0]) / length if length > 0.0
+               else np.hypot(rel[:, 0], rel[:, 1]))
+        i = int(np.argmax(off))
+        if off[i] > tolerance_m:
+            keep.add(a + 1 + i)
+            runs += [(a, a + 1 + i), (a + 1 + i, b)]
+    return sorted(keep)
+
+
 def _chain(ranges_m: np.ndarray, bearings_rad: np.ndarray, increment_rad: float,
            params: BlobParams) -> list[Observation]:
     points = np.column_stack((ranges_m * np.cos(bearings_rad), ranges_m * np.sin(bearings_rad)))
-    picked = [0]
-    for i in range(1, len(points)):
-        if np.hypot(*(points[i] - points[picked[-1]])) >= params.chain_spacing_m:
-            picked.append(i)
-    if picked[-1] != len(points) - 1:
-        picked.append(len(points) - 1)         # the blob's end: where the wall stops
+    # The ends (where the wall stops) and the corners (a building's, seen across two faces)
+    # always, so the safety circles reach round them; between them, points no further apart
+    # than chain_spacing_m along the surface.
+    anchors = corner_indices(points, params.corner_tolerance_m)
+    picked = [anchors[0]]
+    for a, b in zip(anchors, anchors[1:]):
+        for i in range(a + 1, b + 1):
+            if np.hypot(*(points[i] - points[picked[-1]])) > params.chain_spacing_m:
+                picked.append(i - 1 if i - 1 > picked[-1] else i)   # the last one within reach
+        if picked[-1] != b:
+            picked.append(b)
     spread = params.correlation_inflation * params.chain_spacing_m ** 2 / 12.0
     out = []
     for i in picked:
