@@ -92,7 +92,8 @@ def blob_observations(ranges_m: np.ndarray, bearings_rad: np.ndarray, increment_
             out.append(_compact(surface, float(0.5 * (brg[0] + brg[-1])), half, blob.bins,
                                 increment_rad, params))
         else:
-            out.extend(_chain(rng, brg, increment_rad, params))
+            out.extend(_chain(rng, brg, increment_rad, params,
+                              (_real_end(ranges_m, blob.first, -1), _real_end(ranges_m, blob.last, 1))))
     return out
 
 
@@ -128,8 +129,17 @@ def corner_indices(points: np.ndarray, tolerance_m: float) -> list[int]:
     return sorted(keep)
 
 
+def _real_end(ranges_m: np.ndarray, edge: int, step: int) -> bool:
+    """Whether a blob's edge bin is where the surface really stops: not the edge of the view,
+    and the next bin out sees nothing or something farther (not a nearer thing hiding it)."""
+    beyond = edge + step
+    if not 0 <= beyond < len(ranges_m):
+        return False
+    return not math.isfinite(ranges_m[beyond]) or ranges_m[beyond] > ranges_m[edge]
+
+
 def _chain(ranges_m: np.ndarray, bearings_rad: np.ndarray, increment_rad: float,
-           params: BlobParams) -> list[Observation]:
+           params: BlobParams, real_ends: tuple[bool, bool] = (False, False)) -> list[Observation]:
     points = np.column_stack((ranges_m * np.cos(bearings_rad), ranges_m * np.sin(bearings_rad)))
     # The ends (where the wall stops) and the corners (a building's, seen across two faces)
     # always, so the safety circles reach round them; between them, points no further apart
@@ -142,13 +152,24 @@ def _chain(ranges_m: np.ndarray, bearings_rad: np.ndarray, increment_rad: float,
                 picked.append(i - 1 if i - 1 > picked[-1] else i)   # the last one within reach
         if picked[-1] != b:
             picked.append(b)
+    # A point between anchors stands for chain_spacing_m of surface either side: spread over it.
+    # A corner or a real end is a point of its own, known to its bin: within half a bin either
+    # side (increment^2 / 12 in bearing; the range across that bin, (r increment)^2 / 12, as a
+    # surface seen edge-on changes range fast). An end at the view's edge or behind something
+    # nearer is no end of the surface: spread like the rest.
+    fixed = set(anchors[1:-1]) | ({anchors[0]} if real_ends[0] else set()) \
+        | ({anchors[-1]} if real_ends[1] else set())
     spread = params.correlation_inflation * params.chain_spacing_m ** 2 / 12.0
+    bin_var = params.correlation_inflation * increment_rad ** 2 / 12.0
     out = []
     for i in picked:
         r = float(ranges_m[i])
-        var_r = params.range_sigma_m ** 2 + spread
-        var_b = (params.bearing_sigma_rad ** 2 + spread / (r * r)
-                 + params.correlation_inflation * increment_rad ** 2 / 12.0)
+        if i in fixed:
+            var_r = params.range_sigma_m ** 2 + bin_var * r * r
+            var_b = params.bearing_sigma_rad ** 2 + bin_var
+        else:
+            var_r = params.range_sigma_m ** 2 + spread
+            var_b = params.bearing_sigma_rad ** 2 + spread / (r * r) + bin_var
         out.append(Observation(r, float(bearings_rad[i]), None, ((var_r, 0.0), (0.0, var_b))))
     return out
 
