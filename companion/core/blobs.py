@@ -36,6 +36,9 @@ class BlobParams:
     chain_spacing_m: float = 4.0          # a choice: under half the 10 m safety distance
     correlation_inflation: float = 4.0
     corner_tolerance_m: float = 0.5      # a choice: 5 sigma of the 0.1 m range noise
+    drop_truncated: bool = True          # a compact blob cut by the view's edge or a nearer thing
+    fit_min_bins: int = 5                # a circle fit needs this many bins (3 unknowns + 2 to spare)
+    fit_inflation: float = 1.0
 
     def __post_init__(self) -> None:
         if self.chain_spacing_m <= 0 or self.compact_width_m <= 0 or self.max_jump_m <= 0:
@@ -89,7 +92,12 @@ def blob_observations(ranges_m: np.ndarray, bearings_rad: np.ndarray, increment_
         surface = float(rng.min())
         half = 0.5 * blob.bins * increment_rad
         if 2.0 * surface * math.sin(half) <= params.compact_width_m and half < 0.5 * math.pi:
-            out.append(_compact(surface, float(0.5 * (brg[0] + brg[-1])), half, blob.bins,
+            if params.drop_truncated and not (_real_end(ranges_m, blob.first, -1)
+                                              and _real_end(ranges_m, blob.last, 1)):
+                continue         # cut by the view's edge or a nearer thing: width and centre lie
+            fitted = _fitted_circle(rng, brg, surface, half, params)
+            out.append(fitted if fitted is not None else
+                       _compact(surface, float(0.5 * (brg[0] + brg[-1])), half, blob.bins,
                                 increment_rad, params))
         else:
             out.extend(_chain(rng, brg, increment_rad, params,
@@ -106,6 +114,51 @@ def _compact(surface_m: float, bearing_rad: float, half_rad: float, bins: int,
     var_r = params.range_sigma_m ** 2 + d_radius ** 2 * edge_var
     var_b = edge_var + params.bearing_sigma_rad ** 2 / bins
     return Observation(surface_m + radius, bearing_rad, None, ((var_r, 0.0), (0.0, var_b)))
+
+
+def fit_circle(points: np.ndarray, iterations: int = 8) -> tuple[np.ndarray, float, np.ndarray]:
+    """Least-squares circle through surface points (k, 2), k >= 3: the Kasa (algebraic) fit,
+    refined by Gauss-Newton on the distances to the circle. Returns (centre (2,), radius,
+    (J^T J)^-1 (3, 3) over [centre, radius], to be scaled by the points' variance)."""
+    a = np.column_stack((2.0 * points, np.ones(len(points))))
+    sol = np.linalg.lstsq(a, np.sum(points * points, axis=1), rcond=None)[0]
+    centre = sol[:2]
+    radius = math.sqrt(max(float(sol[2] + centre @ centre), 1e-6))
+    for _ in range(iterations + 1):
+        d = points - centre
+        dist = np.maximum(np.hypot(d[:, 0], d[:, 1]), 1e-9)
+        jac = np.column_stack((-d / dist[:, None], -np.ones(len(points))))
+        if _ == iterations:
+            break
+        step = np.linalg.lstsq(jac, radius - dist, rcond=None)[0]
+        centre, radius = centre + step[:2], radius + float(step[2])
+    return centre, radius, np.linalg.pinv(jac.T @ jac)
+
+
+def _fitted_circle(ranges_m: np.ndarray, bearings_rad: np.ndarray, surface_m: float,
+                   half_rad: float, params: BlobParams) -> Observation | None:
+    """A compact blob's centre by a circle fit to its surface points, R from the fit's own
+    covariance (per-bin range noise, white from frame to frame, unlike the width's quantisation);
+    None when too few bins or the fit is implausible (not round: a face, a corner)."""
+    if len(ranges_m) < params.fit_min_bins or params.range_sigma_m <= 0.0:
+        return None
+    points = np.column_stack((ranges_m * np.cos(bearings_rad), ranges_m * np.sin(bearings_rad)))
+    try:
+        centre, radius, inv = fit_circle(points)
+    except np.linalg.LinAlgError:
+        return None
+    sin_a = math.sin(half_rad)
+    width_radius = surface_m * sin_a / (1.0 - sin_a)
+    r = float(np.hypot(*centre))
+    if not (math.isfinite(radius) and 0.0 < radius <= 2.0 * width_radius + 0.5
+            and surface_m < r <= surface_m + 2.0 * radius + 0.5):
+        return None
+    cov_xy = params.fit_inflation * params.range_sigma_m ** 2 * inv[:2, :2]
+    jac = np.array([[centre[0] / r, centre[1] / r], [-centre[1] / r ** 2, centre[0] / r ** 2]])
+    cov = jac @ cov_xy @ jac.T
+    cov[1, 1] += params.bearing_sigma_rad ** 2 / len(ranges_m)
+    return Observation(r, float(math.atan2(centre[1], centre[0])), None,
+                       ((float(cov[0, 0]), float(cov[0, 1])), (float(cov[1, 0]), float(cov[1, 1]))))
 
 
 def corner_indices(points: np.ndarray, tolerance_m: float) -> list[int]:

@@ -78,4 +78,40 @@ def test_a_post_in_front_of_a_farther_one_is_split_by_the_range_jump():
     ranges, bearings, increment = scan([(15.0, 0.0, 1.0), (30.0, 1.5, 2.0)])
     blobs = group_bins(ranges, PARAMS.max_jump_m)
     assert len(blobs) >= 2
-    assert len(blob_observations(ranges, bearings, increment, PARAMS)) >= 2
+    # the farther post shows only its east side past the nearer one: a centre from that cut
+    # width would lie metres off, so it is not reported until it is in full view
+    (near,) = blob_observations(ranges, bearings, increment, PARAMS)
+    assert near.range_m == pytest.approx(15.0, abs=0.3) and abs(near.bearing_rad) < 0.01
+    assert len(blob_observations(*scan([(15.0, 0.0, 1.0), (30.0, 12.0, 2.0)]), PARAMS)) == 2
+
+
+def test_a_post_cut_by_the_edge_of_the_view_is_not_reported():
+    # 45 deg off the heading at 20 m: half of it outside the 90 deg view
+    ranges, bearings, increment = scan([(20.0 * math.cos(math.radians(45.0)),
+                                         20.0 * math.sin(math.radians(45.0)), 2.0)])
+    assert np.isfinite(ranges[-1])                     # the last bin holds its surface
+    assert blob_observations(ranges, bearings, increment, PARAMS) == []
+
+
+def test_a_post_seen_across_enough_bins_is_placed_by_a_circle_fit():
+    # range noise 0.1 m a bin: the fit's centre within a few of its own sigmas, R from the fit
+    north, east, radius = 18.0, -2.0, 2.5
+    import dataclasses
+    base = load_scenario("config/scenarios/paper-anonymous.yaml")
+    sensor = dataclasses.replace(base.sensor, range_sigma_m=0.1, form="sectors")
+    world = World(StartPose(0.0, 0.0, 0.0), Goal(500.0, 0.0), (Obstacle(1, north, east, radius),))
+    truth = TruthWorld(dataclasses.replace(base, world=world, sensor=sensor),
+                       np.random.default_rng(3))
+    errors = []
+    for _ in range(200):
+        (obs,) = blob_observations(*truth.observe_sectors(), BlobParams(range_sigma_m=0.1))
+        e = np.array([obs.range_m - math.hypot(north, east),
+                      obs.bearing_rad - math.atan2(east, north)])
+        errors.append(float(e @ np.linalg.solve(np.array(obs.meas_cov), e)))
+        assert obs.meas_cov[1][1] < PARAMS.correlation_inflation * increment_of(72) ** 2 / 24.0
+    # the fit's R is honest (NIS mean about 2 for 2 dof, well under the 9.2 of a 99% gate)
+    assert 0.5 < np.mean(errors) < 3.0
+
+
+def increment_of(count):
+    return FOV / count
