@@ -36,7 +36,6 @@ class BlobParams:
     chain_spacing_m: float = 4.0          # a choice: under half the 10 m safety distance
     correlation_inflation: float = 4.0
     corner_tolerance_m: float = 0.5      # a choice: 5 sigma of the 0.1 m range noise
-    drop_truncated: bool = True          # a compact blob cut by the view's edge or a nearer thing
     fit_min_bins: int = 5                # a circle fit needs this many bins (3 unknowns + 2 to spare)
     fit_inflation: float = 1.0
 
@@ -92,13 +91,19 @@ def blob_observations(ranges_m: np.ndarray, bearings_rad: np.ndarray, increment_
         surface = float(rng.min())
         half = 0.5 * blob.bins * increment_rad
         if 2.0 * surface * math.sin(half) <= params.compact_width_m and half < 0.5 * math.pi:
-            if params.drop_truncated and not (_real_end(ranges_m, blob.first, -1)
-                                              and _real_end(ranges_m, blob.last, 1)):
-                continue         # cut by the view's edge or a nearer thing: width and centre lie
-            fitted = _fitted_circle(rng, brg, surface, half, params)
-            out.append(fitted if fitted is not None else
-                       _compact(surface, float(0.5 * (brg[0] + brg[-1])), half, blob.bins,
-                                increment_rad, params))
+            cut = not (_real_end(ranges_m, blob.first, -1) and _real_end(ranges_m, blob.last, 1))
+            # A circle fit needs only points on the circle, cut or not; the width does not: a
+            # blob cut by the view's edge or a nearer thing has a width (and so a centre) that
+            # lies. Without a fit, a cut blob gives its surface points, loose (no corner, no
+            # end): they keep a new obstacle in the map without dragging a centre to them.
+            fitted = _fitted_circle(rng, brg, surface, half, params, cut)
+            if fitted is not None:
+                out.append(fitted)
+            elif cut:
+                out.extend(_chain(rng, brg, increment_rad, params, loose=True))
+            else:
+                out.append(_compact(surface, float(0.5 * (brg[0] + brg[-1])), half, blob.bins,
+                                    increment_rad, params))
         else:
             out.extend(_chain(rng, brg, increment_rad, params,
                               (_real_end(ranges_m, blob.first, -1), _real_end(ranges_m, blob.last, 1))))
@@ -136,7 +141,7 @@ def fit_circle(points: np.ndarray, iterations: int = 8) -> tuple[np.ndarray, flo
 
 
 def _fitted_circle(ranges_m: np.ndarray, bearings_rad: np.ndarray, surface_m: float,
-                   half_rad: float, params: BlobParams) -> Observation | None:
+                   half_rad: float, params: BlobParams, cut: bool = False) -> Observation | None:
     """A compact blob's centre by a circle fit to its surface points, R from the fit's own
     covariance (per-bin range noise, white from frame to frame, unlike the width's quantisation);
     None when too few bins or the fit is implausible (not round: a face, a corner)."""
@@ -148,9 +153,13 @@ def _fitted_circle(ranges_m: np.ndarray, bearings_rad: np.ndarray, surface_m: fl
     except np.linalg.LinAlgError:
         return None
     sin_a = math.sin(half_rad)
+    # the radius is no more than the width implies (less a cut blob's, whose width is short),
+    # and never a flat face's (a huge circle far behind the surface)
+    largest = 0.5 * params.compact_width_m
     width_radius = surface_m * sin_a / (1.0 - sin_a)
+    bound = largest if cut else min(largest, 2.0 * width_radius + 0.5)
     r = float(np.hypot(*centre))
-    if not (math.isfinite(radius) and 0.0 < radius <= 2.0 * width_radius + 0.5
+    if not (math.isfinite(radius) and 0.0 < radius <= bound
             and surface_m < r <= surface_m + 2.0 * radius + 0.5):
         return None
     cov_xy = params.fit_inflation * params.range_sigma_m ** 2 * inv[:2, :2]
@@ -192,7 +201,8 @@ def _real_end(ranges_m: np.ndarray, edge: int, step: int) -> bool:
 
 
 def _chain(ranges_m: np.ndarray, bearings_rad: np.ndarray, increment_rad: float,
-           params: BlobParams, real_ends: tuple[bool, bool] = (False, False)) -> list[Observation]:
+           params: BlobParams, real_ends: tuple[bool, bool] = (False, False),
+           loose: bool = False) -> list[Observation]:
     points = np.column_stack((ranges_m * np.cos(bearings_rad), ranges_m * np.sin(bearings_rad)))
     # The ends (where the wall stops) and the corners (a building's, seen across two faces)
     # always, so the safety circles reach round them; between them, points no further apart
@@ -210,7 +220,7 @@ def _chain(ranges_m: np.ndarray, bearings_rad: np.ndarray, increment_rad: float,
     # side (increment^2 / 12 in bearing; the range across that bin, (r increment)^2 / 12, as a
     # surface seen edge-on changes range fast). An end at the view's edge or behind something
     # nearer is no end of the surface: spread like the rest.
-    fixed = set(anchors[1:-1]) | ({anchors[0]} if real_ends[0] else set()) \
+    fixed = set() if loose else set(anchors[1:-1]) | ({anchors[0]} if real_ends[0] else set()) \
         | ({anchors[-1]} if real_ends[1] else set())
     spread = params.correlation_inflation * params.chain_spacing_m ** 2 / 12.0
     bin_var = params.correlation_inflation * increment_rad ** 2 / 12.0
