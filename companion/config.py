@@ -10,7 +10,10 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Literal
 
+import numpy as np
+
 from companion.config_loader import FieldError, build, read_yaml, require
+from companion.core import shapes
 from companion.core.consistency import MonitorParams
 from companion.core.ekf_slam import AssociationGates, SlamNoise, VelocityNoise
 from companion.core.guidance import GuidanceParams
@@ -101,24 +104,93 @@ class Obstacle:
 
 
 @dataclass(frozen=True)
+class Point:
+    north_m: float
+    east_m: float
+
+
+def _shape_id(value: int) -> None:
+    require(0 <= value < 65535, "id", value, "an integer in [0, 65534] (65535 means 'no id')")
+
+
+@dataclass(frozen=True)
+class Wall:
+    """A wall, fence or hedge: the rectangle ``thickness_m`` thick around the segment from
+    ``start`` to ``end`` (square ends). Static. Seen by a depth camera (sensor.form sectors or
+    both) only: a camera reporting centres says nothing about it."""
+    id: int
+    start: Point
+    end: Point
+    thickness_m: float
+
+    def __post_init__(self) -> None:
+        _shape_id(self.id)
+        _positive("thickness_m", self.thickness_m)
+        if math.hypot(self.end.north_m - self.start.north_m,
+                      self.end.east_m - self.start.east_m) <= shapes.DEGENERATE_M:
+            raise FieldError("end", "zero-length wall: end is the same point as start")
+
+    def corners_ne(self) -> np.ndarray:
+        """The wall's rectangle (4, 2), counter-clockwise (core/shapes.py)."""
+        return shapes.wall_corners(np.array([self.start.north_m, self.start.east_m]),
+                                   np.array([self.end.north_m, self.end.east_m]), self.thickness_m)
+
+
+@dataclass(frozen=True)
+class Building:
+    """A building (or any convex footprint): its corners in order, either way round. Static.
+    Seen by a depth camera only, as a wall is."""
+    id: int
+    corners: tuple[Point, ...]
+
+    def __post_init__(self) -> None:
+        _shape_id(self.id)
+        problem = shapes.convexity_problem(self._raw())
+        if problem is not None:
+            raise FieldError("corners", problem)
+
+    def _raw(self) -> np.ndarray:
+        return np.array([[c.north_m, c.east_m] for c in self.corners], dtype=float).reshape(-1, 2)
+
+    def corners_ne(self) -> np.ndarray:
+        """The corners (m, 2), counter-clockwise."""
+        return shapes.as_counter_clockwise(self._raw())
+
+
+@dataclass(frozen=True)
 class World:
     start: StartPose
     goal: Goal
     obstacles: tuple[Obstacle, ...] = ()
     origin: GeoOrigin = field(default_factory=GeoOrigin)
+    walls: tuple[Wall, ...] = ()
+    buildings: tuple[Building, ...] = ()
 
     def __post_init__(self) -> None:
         seen = set()
-        for i, obs in enumerate(self.obstacles):
-            if obs.id in seen:
-                raise FieldError(f"obstacles[{i}].id", f"duplicate obstacle id {obs.id}")
-            seen.add(obs.id)
+        for key, items in (("obstacles", self.obstacles), ("walls", self.walls),
+                           ("buildings", self.buildings)):
+            for i, item in enumerate(items):
+                if item.id in seen:
+                    raise FieldError(f"{key}[{i}].id", f"duplicate obstacle id {item.id} (ids "
+                                     "are shared by obstacles, walls and buildings)")
+                seen.add(item.id)
+        for key, point in (("start", self.start), ("goal", self.goal)):
+            for shape_key, shape in self.shapes():
+                if shapes.polygon_distance_m(np.array([point.north_m, point.east_m]),
+                                             shape.corners_ne())[0] <= 0.0:
+                    raise FieldError(key, f"the {key} lies inside {shape_key} {shape.id}")
+        for obs in self.obstacles:
             if obs.moving:
                 continue
             if math.hypot(self.goal.north_m - obs.north_m, self.goal.east_m - obs.east_m) <= obs.radius_m:
                 raise FieldError("goal", f"the goal lies inside obstacle {obs.id}")
             if math.hypot(self.start.north_m - obs.north_m, self.start.east_m - obs.east_m) <= obs.radius_m:
                 raise FieldError("start", f"the start lies inside obstacle {obs.id}")
+
+    def shapes(self) -> list[tuple[str, "Wall | Building"]]:
+        """Every wall and building, as ('wall' | 'building', shape)."""
+        return [("wall", w) for w in self.walls] + [("building", b) for b in self.buildings]
 
 
 @dataclass(frozen=True)
@@ -444,6 +516,16 @@ class Scenario:
                 raise FieldError("world.goal", f"the goal lies within the safety distance "
                                  f"({self.avoidance.safety_distance_m} m) of obstacle {obs.id}: "
                                  "no safe path can end there")
+        goal_ne = np.array([goal.north_m, goal.east_m])
+        for kind, shape in self.world.shapes():
+            if shapes.polygon_distance_m(goal_ne, shape.corners_ne())[0] <= \
+                    self.avoidance.safety_distance_m:
+                raise FieldError("world.goal", f"the goal lies within the safety distance "
+                                 f"({self.avoidance.safety_distance_m} m) of {kind} {shape.id}'s "
+                                 "surface: no safe path can end there")
+        if self.world.shapes() and self.sensor.form == "centres":
+            raise FieldError("sensor.form", "centres cannot see walls or buildings (a camera "
+                             "reporting centres says nothing about them): use sectors or both")
 
     def estimator_config(self, flown_as: str | None = None) -> EstimatorConfig:
         """The filter's settings: the scenario's own, else matched to its vehicle, noise and

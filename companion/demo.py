@@ -31,6 +31,7 @@ from companion.adapters import codec
 from companion.adapters.mavlink_link import open_link
 from companion.config import (CompanionConfig, GoalConfig, Scenario, config_to_dict, load_config,
                               read_signing_key)
+from companion.core import shapes
 from companion.core.geometry import wrap_angle
 from companion.errors import CompanionError
 from companion.paths import resolve_config
@@ -433,12 +434,21 @@ def score(report: dict, truth: list[dict], scenario: Scenario, seed: int) -> tup
         nees.append(float(err @ np.linalg.solve(cov, err)))
 
     after_arm = [r for r in truth if r["t_s"] >= t0]
-    clearance, collided = math.inf, False
+    clearance, surface, collided = math.inf, math.inf, False
     for r in after_arm:
         for ob in r["obstacles"]:
             gap = math.hypot(r["north_m"] - ob["north_m"], r["east_m"] - ob["east_m"])
             clearance = min(clearance, gap)
+            surface = min(surface, gap - ob["radius_m"])
             collided = collided or gap < ob["radius_m"]
+    # walls and buildings are static: their surfaces against the whole true path at once
+    flown = np.array([[r["north_m"], r["east_m"]] for r in after_arm]).reshape(-1, 2)
+    outlines = [shape.corners_ne() for _, shape in scenario.world.shapes()]
+    for corners in outlines:
+        if len(flown):
+            gap = float(shapes.polygon_distance_m(flown, corners).min())
+            clearance, surface = min(clearance, gap), min(surface, gap)
+            collided = collided or gap < 0.0
     flight = np.array([[r["north_m"], r["east_m"]] for r in after_arm if r["t_s"] <= t_arrival])
     path_m = float(np.sum(np.hypot(*np.diff(flight, axis=0).T))) if len(flight) > 1 else 0.0
     goal = scenario.world.goal
@@ -453,6 +463,7 @@ def score(report: dict, truth: list[dict], scenario: Scenario, seed: int) -> tup
         and final_goal_distance <= goal.radius_m + ARRIVAL_ALLOWANCE_M,
         "time_s": round(t_arrival - t0, 6),
         "min_clearance_m": clearance if math.isfinite(clearance) else None,
+        "min_surface_clearance_m": surface if math.isfinite(surface) else None,
         "collided": collided,
         "final_goal_distance_m": final_goal_distance,
         "final_position_error_m": float(errors[-1]) if len(errors) else None,
@@ -469,6 +480,7 @@ def score(report: dict, truth: list[dict], scenario: Scenario, seed: int) -> tup
         "obstacle_radii": np.array([o["radius_m"] for o in obstacles_end]),
         "landmarks_ne": np.array([[m["north_m"], m["east_m"]] for m in landmarks]).reshape(-1, 2),
         "landmark_covs": np.array([m["cov_m2"] for m in landmarks]).reshape(-1, 2, 2),
+        "shapes_ne": outlines,
         "nees": nees,
     }
     return summary, plot

@@ -26,11 +26,30 @@ def covariance_ellipse(mean: np.ndarray, cov: np.ndarray, sigmas: float = 3.0,
     return mean + (circle * radii) @ vectors.T
 
 
+def offset_outline(corners: np.ndarray, distance_m: float, arc_points: int = 8) -> np.ndarray:
+    """The closed outline (k, 2) of the points ``distance_m`` from a convex polygon (m, 2),
+    counter-clockwise: each edge pushed out, the corners rounded."""
+    corners = np.asarray(corners, dtype=float)
+    edges = np.roll(corners, -1, axis=0) - corners
+    normals = np.column_stack((edges[:, 1], -edges[:, 0])) / np.hypot(*edges.T)[:, None]
+    out = []
+    for i, corner in enumerate(corners):
+        a0 = np.arctan2(*normals[i - 1][::-1])
+        a1 = np.arctan2(*normals[i][::-1])
+        a1 = a0 + (a1 - a0) % (2.0 * np.pi)
+        for a in np.linspace(a0, a1, arc_points):
+            out.append(corner + distance_m * np.array([np.cos(a), np.sin(a)]))
+    out.append(out[0])
+    return np.array(out)
+
+
 def plot_paths(path: str | Path, *, true_ne: np.ndarray, est_ne: np.ndarray,
                obstacles_ne: np.ndarray, obstacle_radii: np.ndarray, safety_distance_m: float,
                goal_ne: np.ndarray, landmarks_ne: np.ndarray, landmark_covs: np.ndarray,
-               title: str, start_ne: np.ndarray | None = None) -> None:
-    """Draw the flight; every array is (k, 2) [north_m, east_m]."""
+               title: str, start_ne: np.ndarray | None = None,
+               shapes_ne: list[np.ndarray] = ()) -> None:
+    """Draw the flight; every array is (k, 2) [north_m, east_m]; ``shapes_ne`` the walls' and
+    buildings' outlines (m, 2) each, drawn filled with their safety distance around them."""
     plt = _figure()
     fig, ax = plt.subplots(figsize=(10, 4.8), dpi=110)
     if len(true_ne):
@@ -43,6 +62,11 @@ def plot_paths(path: str | Path, *, true_ne: np.ndarray, est_ne: np.ndarray,
                                 label="safety distance d" if i == 0 else None))
     if len(obstacles_ne):
         ax.plot(obstacles_ne[:, 0], obstacles_ne[:, 1], "g*", ms=11, label="obstacle centre")
+    for i, corners in enumerate(shapes_ne):
+        ax.add_patch(plt.Polygon(corners, closed=True, color="saddlebrown", alpha=0.5,
+                                 label="wall / building" if i == 0 else None))
+        ring = offset_outline(corners, safety_distance_m)
+        ax.plot(ring[:, 0], ring[:, 1], ":", color="saddlebrown", lw=0.9)
     for i, (mean, cov) in enumerate(zip(landmarks_ne, landmark_covs)):
         ring = covariance_ellipse(mean, cov)
         ax.plot(ring[:, 0], ring[:, 1], "k-", lw=0.8, label="landmark 3-sigma" if i == 0 else None)
@@ -74,4 +98,5 @@ def plot_run(path: str | Path, scenario, outcome, title: str) -> None:
         safety_distance_m=scenario.avoidance.safety_distance_m,
         goal_ne=np.array([world.goal.north_m, world.goal.east_m]),
         landmarks_ne=outcome.landmarks, landmark_covs=outcome.landmark_covs,
-        title=title, start_ne=np.array([world.start.north_m, world.start.east_m]))
+        title=title, start_ne=np.array([world.start.north_m, world.start.east_m]),
+        shapes_ne=[shape.corners_ne() for _, shape in world.shapes()])

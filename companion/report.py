@@ -38,11 +38,17 @@ def print_summary(report: dict, out: TextIO) -> None:
     lines = [
         f"runs: {agg.get('runs')}   success rate: {_fmt(agg.get('success_rate'))}"
         f"   collision rate: {_fmt(agg.get('collision_rate'))}",
-        f"closest approach to an obstacle centre: min {_fmt(clear.get('min'), ' m')}, "
+        f"closest approach to an obstacle centre (a wall's or building's surface): "
+        f"min {_fmt(clear.get('min'), ' m')}, "
         f"p5 {_fmt(clear.get('p5'), ' m')}, median {_fmt(clear.get('median'), ' m')}",
         f"final position error: median {_fmt(err.get('median'), ' m')}, "
         f"p95 {_fmt(err.get('p95'), ' m')}, max {_fmt(err.get('max'), ' m')}",
     ]
+    surface = agg.get("min_surface_clearance_m")
+    if surface:
+        lines.append(f"closest approach to any surface: min {_fmt(surface.get('min'), ' m')}, "
+                     f"p5 {_fmt(surface.get('p5'), ' m')}, "
+                     f"median {_fmt(surface.get('median'), ' m')}")
     arrivals = agg.get("arrivals")
     if arrivals and arrivals.get("max_true_goal_distance_m") is not None:
         lines.append(f"arrivals declared: {arrivals['declared']}, uncertain (held): "

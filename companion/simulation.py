@@ -140,7 +140,7 @@ def run_once(scenario: Scenario, seed: int, strategy: str | None = None) -> RunO
     obs_every = max(1, round(1.0 / (scenario.sensor.rate_hz * dt)))
     max_steps = int(math.ceil(scenario.mission.max_time_s / dt))
     trace = Trace()
-    min_clearance = math.inf
+    min_clearance = min_surface = math.inf
     collided = False
     urgent_events = 0
     path_m = 0.0
@@ -187,10 +187,10 @@ def run_once(scenario: Scenario, seed: int, strategy: str | None = None) -> RunO
         path_m += float(np.hypot(*(truth.pose[:2] - before)))
         if step % obs_every == 0:
             nav.observe(camera_frame(truth, blobs))
-        gaps = np.hypot(*(truth.obstacle_positions() - truth.pose[:2]).T) if len(truth.obstacle_ids) else np.array([])
-        if gaps.size:
-            min_clearance = min(min_clearance, float(gaps.min()))
-            collided = collided or bool(np.any(gaps < truth.obstacle_radii))
+        clear = truth.clearance()
+        min_clearance = min(min_clearance, clear.clearance_m)
+        min_surface = min(min_surface, clear.surface_m)
+        collided = collided or clear.surface_m < 0.0
         est = nav.slam.pose
         max_err = max(max_err, float(np.hypot(*(est[:2] - truth.pose[:2]))))
         trace.t_s.append(truth.t_s)
@@ -206,6 +206,7 @@ def run_once(scenario: Scenario, seed: int, strategy: str | None = None) -> RunO
         "reached_goal": bool(reached),
         "time_s": round(truth.t_s, 6),
         "min_clearance_m": min_clearance if math.isfinite(min_clearance) else None,
+        "min_surface_clearance_m": min_surface if math.isfinite(min_surface) else None,
         "collided": collided,
         "final_goal_distance_m": final_goal_distance,
         "final_position_error_m": float(np.hypot(*(est[:2] - truth.pose[:2]))),
@@ -282,6 +283,7 @@ def aggregate_summaries(summaries: list[dict], pose_nees: list, safety_distance_
             "p5": float(np.percentile(finite_clear, 5)) if finite_clear.size else None,
             "median": float(np.median(finite_clear)) if finite_clear.size else None,
         },
+        "min_surface_clearance_m": surface_figures(summaries),
         "final_position_error_m": {
             "median": float(np.median(errors)), "p95": float(np.percentile(errors, 95)),
             "max": float(errors.max()),
@@ -296,6 +298,17 @@ def aggregate_summaries(summaries: list[dict], pose_nees: list, safety_distance_
         "arrivals": arrival_figures(summaries),
         "landmarks": landmark_figures(summaries),
     }
+
+
+def surface_figures(summaries: list[dict]) -> dict:
+    """Closest approach to any surface (a circle's centre distance less its radius; walls and
+    buildings as in min_clearance_m) over the runs that report it."""
+    gaps = np.array([s["min_surface_clearance_m"] for s in summaries
+                     if s.get("min_surface_clearance_m") is not None])
+    if not gaps.size:
+        return {}
+    return {"min": float(gaps.min()), "p5": float(np.percentile(gaps, 5)),
+            "median": float(np.median(gaps))}
 
 
 def landmark_figures(summaries: list[dict]) -> dict:

@@ -15,6 +15,7 @@ import numpy as np
 
 from companion.config import Scenario
 from companion.core.ekf_slam import Observation
+from companion.core import shapes
 from companion.core.geometry import is_visible, move, wrap_angle
 
 FALSE_ALARM_MIN_RANGE_M = 0.5
@@ -38,6 +39,15 @@ class CopterOdometry:
     position_ne_m: tuple[float, float]
 
 
+@dataclass(frozen=True)
+class Clearance:
+    """``clearance_m``: to a circle's centre (the paper's figure, comparable with d), to a wall's
+    or building's surface. ``surface_m``: to the nearest surface of anything (a circle's centre
+    distance minus its radius). Negative ``surface_m``: inside, a collision."""
+    clearance_m: float
+    surface_m: float
+
+
 class TruthWorld:
     """The vehicle's true pose and speed, the obstacles' true positions, and the sensors."""
 
@@ -54,6 +64,9 @@ class TruthWorld:
                                        for o in obstacles]).reshape(-1, 2)
         self.obstacle_radii = np.array([o.radius_m for o in obstacles])
         self.obstacle_ids = [o.id for o in obstacles]
+        # walls and buildings: static convex polygons (core/shapes.py), seen by sectors only
+        self.shape_ids = [shape.id for _, shape in scenario.world.shapes()]
+        self.shape_corners = [shape.corners_ne() for _, shape in scenario.world.shapes()]
         # The multicopter: a velocity of its own (it starts cruising along its yaw, as the
         # unicycle does) and a GPS bias, drawn only when it flies (the unicycle's random stream
         # stays as it was).
@@ -121,7 +134,7 @@ class TruthWorld:
 
     def observe_sectors(self) -> tuple[np.ndarray, np.ndarray, float]:
         """One depth frame: per bin, the nearest obstacle surface along the ray through the bin's
-        centre (ray-cast against every circle), with range noise; a bin is missed with
+        centre (ray-cast against every circle, wall and building), with range noise; a bin is missed with
         miss_probability; false alarms (as many as the centre form's, per frame) put a surface
         in a random bin at a range uniform over the view's area, if nearer than what is there.
         Returns (ranges_m (n,), NaN where nothing; bin-centre bearings (n,); increment_rad)."""
@@ -131,14 +144,8 @@ class TruthWorld:
         bearings = -0.5 * fov + increment * (np.arange(count) + 0.5)
         directions = self.pose[2] + bearings
         rays = np.column_stack((np.cos(directions), np.sin(directions)))        # (n, 2)
-        ranges = np.full(count, np.inf)
+        ranges = self.surface_ranges(rays)
         centres = self.obstacle_positions() - self.pose[:2]
-        for centre, radius in zip(centres, self.obstacle_radii):
-            along = rays @ centre                                                 # (n,)
-            off_sq = float(centre @ centre) - along ** 2
-            inside = off_sq <= radius ** 2
-            hit = along - np.sqrt(np.where(inside, radius ** 2 - off_sq, 0.0))
-            ranges = np.where(inside & (hit > 0.0), np.minimum(ranges, hit), ranges)
         seen = np.isfinite(ranges) & (ranges <= sensor.max_range_m)
         for oid, centre in zip(self.obstacle_ids, centres):
             if is_visible(math.hypot(*centre), wrap_angle(math.atan2(centre[1], centre[0])
@@ -155,6 +162,33 @@ class TruthWorld:
                 r = max(FALSE_ALARM_MIN_RANGE_M, sensor.max_range_m * math.sqrt(rng.random()))
                 out[i] = r if not np.isfinite(out[i]) else min(out[i], r)
         return out, bearings, increment
+
+    def surface_ranges(self, rays: np.ndarray) -> np.ndarray:
+        """Distance along each unit ray (n, 2) from the vehicle to the nearest surface of any
+        obstacle, wall or building (inf where none), (n,); a shape a ray meets within the
+        sensor's range counts as seen."""
+        origin = self.pose[:2]
+        ranges = shapes.ray_cast_circles(origin, rays, self.obstacle_positions(),
+                                         self.obstacle_radii)
+        for oid, corners in zip(self.shape_ids, self.shape_corners):
+            hits = shapes.ray_cast_polygon(origin, rays, corners)
+            if np.any(hits <= self.scenario.sensor.max_range_m):
+                self.seen_ids.add(oid)
+            ranges = np.minimum(ranges, hits)
+        return ranges
+
+    def clearance(self) -> "Clearance":
+        """How close the vehicle is now to every obstacle, wall and building (see Clearance)."""
+        position = self.pose[:2]
+        centre_m = surface_m = math.inf
+        if len(self.obstacle_ids):
+            gaps = shapes.circle_distance_m(position, self.obstacle_positions(),
+                                            self.obstacle_radii)[0]
+            centre_m = float((gaps + self.obstacle_radii).min())
+            surface_m = float(gaps.min())
+        shape_m = min((float(shapes.polygon_distance_m(position, c)[0])
+                       for c in self.shape_corners), default=math.inf)
+        return Clearance(min(centre_m, shape_m), min(surface_m, shape_m))
 
     def observe(self) -> list[Observation]:
         """One camera frame: every obstacle centre in view, with R noise (the range's sigma

@@ -1,4 +1,5 @@
-"""Seeded random worlds for Monte Carlo: sparse, dense and moving obstacle fields.
+"""Seeded random worlds for Monte Carlo: sparse, dense and moving obstacle fields, traffic,
+rows of posts (gate, trap), and walls with buildings among posts (urban).
 
 ``random_world(base, kind, seed)`` keeps everything of ``base`` (vehicle, noise, sensor, guidance)
 and replaces the world: a leg of 120 to 300 m due north, obstacles scattered in a corridor around
@@ -12,7 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from companion.config import Goal, Obstacle, Scenario, StartPose, World
+from companion.config import Building, Goal, Obstacle, Point, Scenario, StartPose, Wall, World
+from companion.core import shapes
 
 
 @dataclass(frozen=True)
@@ -188,5 +190,113 @@ def trap_world(base: Scenario, seed: int) -> Scenario:
     return _post_world(base, f"trap-{seed}", leg, centres)
 
 
-POST_KINDS = {"gate": gate_world, "trap": trap_world}
+# Walls and buildings among posts (issue 15): 1 to 3 walls 10 to 30 m long (0.2 to 1 m thick, any
+# direction), 1 to 3 buildings (4 to 6 corners on an ellipse of 4 to 10 m semi-axes: always
+# convex), 3 to 10 posts as in the dense worlds, in the dense worlds' corridor. Every two shapes
+# (walls, buildings, and a post from a shape) leave URBAN_GAP_M between their surfaces, more than
+# two safety circles, so no pair closes a gap; posts keep the dense spacing among themselves.
+URBAN_LEG_M = (150.0, 300.0)
+URBAN_CORRIDOR_HALF_WIDTH_M = 25.0
+URBAN_GAP_EXTRA_M = 4.0
+URBAN_TRIES = 2000
+
+
+def _outline_gap_m(a: np.ndarray, b: np.ndarray) -> float:
+    """Surface-to-surface distance of two convex outlines (their edges sampled every 0.25 m)."""
+    return min(float(shapes.polygon_distance_m(_edge_points(a), b).min()),
+               float(shapes.polygon_distance_m(_edge_points(b), a).min()))
+
+
+def _edge_points(corners: np.ndarray, step_m: float = 0.25) -> np.ndarray:
+    points = []
+    for p, q in zip(corners, np.roll(corners, -1, axis=0)):
+        n = max(1, int(np.ceil(np.hypot(*(q - p)) / step_m)))
+        points.extend(p + (q - p) * k / n for k in range(n))
+    return np.array(points)
+
+
+def _random_building(rng: np.random.Generator, centre: np.ndarray) -> np.ndarray:
+    semi = rng.uniform(4.0, 10.0, 2)
+    angles = np.sort(rng.uniform(0.0, 2.0 * math.pi, int(rng.integers(4, 7))))
+    while np.max(np.diff(np.concatenate([angles, angles[:1] + 2.0 * math.pi]))) > 0.75 * math.pi:
+        angles = np.sort(rng.uniform(0.0, 2.0 * math.pi, len(angles)))   # no sliver of a footprint
+    turn = rng.uniform(0.0, math.pi)
+    rot = np.array([[math.cos(turn), -math.sin(turn)], [math.sin(turn), math.cos(turn)]])
+    points = np.column_stack((semi[0] * np.cos(angles), semi[1] * np.sin(angles))) @ rot.T
+    return shapes.as_counter_clockwise(points + centre)
+
+
+def urban_world(base: Scenario, seed: int) -> Scenario:
+    """Walls, buildings and posts on a 150 to 300 m leg (see URBAN_LEG_M); needs a depth camera
+    (sensor.form sectors or both), as the scenario itself checks."""
+    rng = np.random.default_rng([seed, 0x0B1D])
+    leg = float(rng.uniform(*URBAN_LEG_M))
+    d = base.avoidance.safety_distance_m
+    stopping_m = base.vehicle.speed_mps ** 2 / (2.0 * base.vehicle.max_accel_mps2)
+    keep_out = d + max(15.0, stopping_m)
+    gap = 2.0 * d + URBAN_GAP_EXTRA_M
+    ends = np.array([[0.0, 0.0], [leg, 0.0]])
+    outlines: list[np.ndarray] = []
+    walls, buildings, posts = [], [], []
+    want = {"wall": int(rng.integers(1, 4)), "building": int(rng.integers(1, 4)),
+            "post": int(rng.integers(3, 11))}
+    for kind in ("wall", "building", "post"):
+        placed = 0
+        for _ in range(URBAN_TRIES):
+            if placed == want[kind]:
+                break
+            centre = np.array([rng.uniform(0.0, leg),
+                               rng.uniform(-1.0, 1.0) * URBAN_CORRIDOR_HALF_WIDTH_M])
+            if kind == "wall":
+                length, heading = rng.uniform(10.0, 30.0), rng.uniform(0.0, math.pi)
+                half = 0.5 * length * np.array([math.cos(heading), math.sin(heading)])
+                thickness = float(rng.uniform(0.2, 1.0))
+                outline = shapes.wall_corners(centre - half, centre + half, thickness)
+            elif kind == "building":
+                outline = _random_building(rng, centre)
+            else:
+                radius = float(rng.uniform(1.0, 3.0))
+                outline = None
+            if outline is not None:
+                if shapes.polygon_distance_m(ends, outline).min() < keep_out:
+                    continue
+                if any(_outline_gap_m(outline, o) < gap for o in outlines):
+                    continue
+                if any(float(shapes.polygon_distance_m(p[:2], outline)[0]) - p[2] < gap
+                       for p in posts):
+                    continue
+            else:
+                if np.hypot(*(ends - centre).T).min() - radius < keep_out:
+                    continue
+                if any(float(shapes.polygon_distance_m(centre, o)[0]) - radius < gap
+                       for o in outlines):
+                    continue
+                if any(np.hypot(*(centre - p[:2])) < KINDS["dense"].min_spacing_m for p in posts):
+                    continue
+            placed += 1
+            if kind == "wall":
+                outlines.append(outline)
+                walls.append((centre - half, centre + half, thickness))
+            elif kind == "building":
+                outlines.append(outline)
+                buildings.append(outline)
+            else:
+                posts.append(np.array([centre[0], centre[1], radius]))
+    ids = iter(range(1, 1000))
+    world = World(
+        start=StartPose(0.0, 0.0, 0.0), goal=Goal(leg, 0.0, base.world.goal.radius_m),
+        obstacles=tuple(Obstacle(next(ids), float(p[0]), float(p[1]), float(p[2])) for p in posts),
+        origin=base.world.origin,
+        walls=tuple(Wall(next(ids), Point(float(a[0]), float(a[1])), Point(float(b[0]), float(b[1])),
+                         t) for a, b, t in walls),
+        buildings=tuple(Building(next(ids), tuple(Point(float(c[0]), float(c[1])) for c in o))
+                        for o in buildings))
+    max_time = max(base.mission.max_time_s, 3.0 * leg / base.vehicle.speed_mps)
+    mission = dataclasses.replace(base.mission, max_time_s=max_time)
+    avoidance = dataclasses.replace(base.avoidance, mission_time_s=max_time)
+    return dataclasses.replace(base, name=f"urban-{seed}", world=world, mission=mission,
+                               avoidance=avoidance)
+
+
+POST_KINDS = {"gate": gate_world, "trap": trap_world, "urban": urban_world}
 WORLD_KINDS = tuple(KINDS) + tuple(TRAFFIC_KINDS) + tuple(POST_KINDS)

@@ -30,6 +30,7 @@ from .lockstep import DEFAULT_TIMEOUT_S, LockstepGate, LockstepOptions, odometry
 from .params import ParamTable
 from .sim import Simulation
 from .telemetry import COMP_AUTOPILOT, MODE_NAMES
+from . import shapes
 from .world import Scenario, ScenarioError, load_scenario, obstacles_at
 
 log = logging.getLogger("sitl_stub")
@@ -77,6 +78,10 @@ class TruthLog:
             "up_m": truth.up_m, "vel_up_mps": truth.vel_up_mps, "landed": ap.flight.land_complete,
             "obstacles": [{"id": i, "north_m": n, "east_m": e, "radius_m": r}
                           for i, n, e, r in obstacles_at(sim.scenario.world.obstacles, t_s)],
+            # the stub's own distance to the nearest wall or building surface (negative: inside)
+            "shape_clearance_m": min((shapes.surface_distance_m(truth.north_m, truth.east_m,
+                                                                list(shape.outline))
+                                      for shape in sim.scenario.world.shapes), default=None),
             "odom_north_m": odom.north_m, "odom_east_m": odom.east_m, "odom_yaw_rad": odom.yaw_rad,
         }
         self._file.write(json.dumps(record) + "\n")

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import shapes
 from .world import UINT16_MAX, SensorConfig, wrap_pi
 
 MIN_DISTANCE_M = 0.2
@@ -111,10 +112,12 @@ def sector_distances_cm(detections: list[Detection], cfg: SensorConfig) -> tuple
 
 def ray_cast_sectors_cm(north_m: float, east_m: float, yaw_rad: float,
                         obstacles: list[tuple[int, float, float, float]], cfg: SensorConfig,
-                        rng: np.random.Generator) -> tuple[list[int], float, float]:
+                        rng: np.random.Generator,
+                        outlines: tuple = ()) -> tuple[list[int], float, float]:
     """The depth camera's own OBSTACLE_DISTANCE (sensor.form sectors or both): sector_count bins
     over the field of view, each the distance (cm) along the ray through the bin's centre to the
-    nearest obstacle surface, from the TRUE pose. Per bin: range + N(0, sigma_r(range)^2), missed
+    nearest surface of a circle or of a wall's or building's outline (``outlines``, shapes.py),
+    from the TRUE pose. Per bin: range + N(0, sigma_r(range)^2), missed
     with miss_probability; false alarms, Poisson(false_alarm_rate_hz / rate_hz) a frame, each in
     a random bin at a range uniform over the view's area, kept if nearer. Bins past sector_count
     are UINT16_MAX (unused). Returns (distances_cm (72), increment_deg, angle_offset_deg), the
@@ -137,6 +140,8 @@ def ray_cast_sectors_cm(north_m: float, east_m: float, yaw_rad: float,
             if along <= 0.0 or miss_sq > radius * radius:
                 continue
             nearest = min(nearest, along - math.sqrt(radius * radius - miss_sq))
+        for outline in outlines:
+            nearest = min(nearest, shapes.ray_distance_m(north_m, east_m, ux, uy, outline))
         if nearest > cfg.max_range_m:
             continue
         if cfg.miss_probability > 0.0 and rng.random() < cfg.miss_probability:

@@ -141,7 +141,8 @@ class Simulation:
         """One depth frame captured now, from the true pose (camera.ray_cast_sectors_cm)."""
         return camera.ray_cast_sectors_cm(self.truth.north_m, self.truth.east_m,
                                           self.truth.yaw_rad, self.obstacles_now(),
-                                          self.scenario.sensor, self._rng_camera)
+                                          self.scenario.sensor, self._rng_camera,
+                                          [list(shape.outline) for shape in self.scenario.world.shapes])
 
     def observe(self) -> list[camera.Detection]:
         """One camera frame captured now, from the true pose."""

@@ -16,6 +16,8 @@ from typing import Any
 
 import yaml
 
+from . import shapes
+
 EARTH_RADIUS_M = 6378137.0  # WGS-84 equatorial radius, as ArduPilot's flat-earth conversion uses
 UINT16_MAX = 65535
 
@@ -75,11 +77,21 @@ class Obstacle:
 
 
 @dataclass(frozen=True)
+class Shape:
+    """A static wall or building: a convex outline [(north_m, east_m)], counter-clockwise
+    (shapes.py). Only the depth camera (sensor.form sectors or both) sees it."""
+    obstacle_id: int
+    kind: str                            # "wall" | "building"
+    outline: tuple[tuple[float, float], ...]
+
+
+@dataclass(frozen=True)
 class WorldConfig:
     origin: Origin
     start: Pose
     goal: Goal
     obstacles: tuple[Obstacle, ...]
+    shapes: tuple[Shape, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -262,6 +274,9 @@ def parse_scenario(data: Any, path: str = "<scenario>") -> Scenario:
         mission = MissionConfig(max_time_s=mission_r.number("max_time_s", minimum=0, strict_min=True))
         mission_r.finish()
     top.finish(ignored=_IGNORED_TOP_KEYS)
+    if world.shapes and sensor.form == "centres":
+        raise ScenarioError(f"{path}: sensor.form: centres cannot see walls or buildings (a "
+                            "camera reporting centres says nothing about them): use sectors or both")
     return Scenario(name=name, world=world, vehicle=vehicle, noise=noise, sensor=sensor,
                     mission=mission, path=path)
 
@@ -299,8 +314,75 @@ def _parse_world(r: _Reader) -> WorldConfig:
             vel_north_mps=ob.number("vel_north_mps", 0.0),
             vel_east_mps=ob.number("vel_east_mps", 0.0)))
         ob.finish()
+    found = _parse_walls(r, seen) + _parse_buildings(r, seen)
+    for shape, _ in found:
+        for key, (n, e) in (("start", (start.north_m, start.east_m)),
+                            ("goal", (goal.north_m, goal.east_m))):
+            if shapes.surface_distance_m(n, e, list(shape.outline)) <= 0.0:
+                raise r.error(f"the {key} lies inside {shape.kind} {shape.obstacle_id}", key)
     r.finish()
-    return WorldConfig(origin=origin, start=start, goal=goal, obstacles=tuple(obstacles))
+    return WorldConfig(origin=origin, start=start, goal=goal, obstacles=tuple(obstacles),
+                       shapes=tuple(shape for shape, _ in found))
+
+
+def _shape_list(r: _Reader, key: str) -> list:
+    items = r._get(key, [])
+    if items is None:
+        return []
+    if not isinstance(items, list):
+        raise r.error(f"expected a list, got {_show(items)}", key)
+    return items
+
+
+def _shape_id(item: _Reader, seen: set[int]) -> int:
+    oid = item.integer("id", minimum=0, maximum=UINT16_MAX - 1)
+    if oid in seen:
+        raise item.error(f"duplicate obstacle id {oid} (obstacles, walls and buildings share ids)",
+                         "id")
+    seen.add(oid)
+    return oid
+
+
+def _point(r: _Reader, key: str) -> tuple[float, float]:
+    p = r.child(key)
+    point = (p.number("north_m"), p.number("east_m"))
+    p.finish()
+    return point
+
+
+def _parse_walls(r: _Reader, seen: set[int]) -> list[tuple[Shape, _Reader]]:
+    out = []
+    for i, item in enumerate(_shape_list(r, "walls")):
+        w = _Reader(r.path, item, f"world.walls[{i}]")
+        oid = _shape_id(w, seen)
+        start, end = _point(w, "start"), _point(w, "end")
+        thickness = w.number("thickness_m", minimum=0, strict_min=True)
+        if math.hypot(end[0] - start[0], end[1] - start[1]) <= shapes.DEGENERATE_M:
+            raise w.error("zero-length wall: end is the same point as start", "end")
+        w.finish()
+        out.append((Shape(oid, "wall", tuple(shapes.wall_outline(start, end, thickness))), w))
+    return out
+
+
+def _parse_buildings(r: _Reader, seen: set[int]) -> list[tuple[Shape, _Reader]]:
+    out = []
+    for i, item in enumerate(_shape_list(r, "buildings")):
+        b = _Reader(r.path, item, f"world.buildings[{i}]")
+        oid = _shape_id(b, seen)
+        raw = b._get("corners", _REQUIRED)
+        if not isinstance(raw, list):
+            raise b.error(f"expected a list of corners, got {_show(raw)}", "corners")
+        corners = []
+        for j, corner in enumerate(raw):
+            c = _Reader(r.path, corner, f"world.buildings[{i}].corners[{j}]")
+            corners.append((c.number("north_m"), c.number("east_m")))
+            c.finish()
+        problem = shapes.outline_problem(corners)
+        if problem is not None:
+            raise b.error(problem, "corners")
+        b.finish()
+        out.append((Shape(oid, "building", tuple(shapes.counter_clockwise(corners))), b))
+    return out
 
 
 VEHICLE_KINDS = ("unicycle", "multicopter")

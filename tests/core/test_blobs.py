@@ -78,4 +78,54 @@ def test_a_post_in_front_of_a_farther_one_is_split_by_the_range_jump():
     ranges, bearings, increment = scan([(15.0, 0.0, 1.0), (30.0, 1.5, 2.0)])
     blobs = group_bins(ranges, PARAMS.max_jump_m)
     assert len(blobs) >= 2
-    assert len(blob_observations(ranges, bearings, increment, PARAMS)) >= 2
+    # the farther post shows only its east side past the nearer one: a centre from that cut
+    # width would lie metres off; without a fit (no range noise given) it gives its surface
+    # points, loose (R of the chain spacing's spread), and the nearer post its centre
+    obs = blob_observations(ranges, bearings, increment, PARAMS)
+    near = [o for o in obs if o.range_m < 20.0]
+    far = [o for o in obs if o.range_m >= 20.0]
+    assert len(near) == 1 and near[0].range_m == pytest.approx(15.0, abs=0.3)
+    spread = PARAMS.correlation_inflation * PARAMS.chain_spacing_m ** 2 / 12.0
+    assert far and all(o.meas_cov[0][0] >= spread for o in far)
+    # on the far post's surface: from the origin, between its nearest point and its tangents
+    assert all(math.hypot(30.0, 1.5) - 2.0 - 0.1 <= o.range_m <= 30.0 for o in far)
+
+
+def test_a_post_cut_by_the_edge_of_the_view_is_placed_by_a_fit_or_left_loose():
+    # 45 deg off the heading at 20 m: half of it outside the 90 deg view
+    post = (20.0 * math.cos(math.radians(45.0)), 20.0 * math.sin(math.radians(45.0)), 2.0)
+    ranges, bearings, increment = scan([post])
+    assert np.isfinite(ranges[-1])                     # the last bin holds its surface
+    spread = PARAMS.correlation_inflation * PARAMS.chain_spacing_m ** 2 / 12.0
+    loose = blob_observations(ranges, bearings, increment, PARAMS)     # exact ranges: no fit
+    assert loose and all(o.meas_cov[0][0] >= spread for o in loose)
+    noisy = ranges + np.random.default_rng(0).normal(0.0, 0.1, len(ranges))
+    (fitted,) = blob_observations(noisy, bearings, increment, BlobParams(range_sigma_m=0.1))
+    centre = fitted.range_m * np.array([math.cos(fitted.bearing_rad), math.sin(fitted.bearing_rad)])
+    assert np.hypot(*(centre - post[:2])) < 1.0
+
+
+def test_a_post_seen_across_enough_bins_is_placed_by_a_circle_fit():
+    # range noise 0.1 m a bin: the fit's centre within a few of its own sigmas, R from the fit
+    north, east, radius = 18.0, -2.0, 2.5
+    import dataclasses
+    base = load_scenario("config/scenarios/paper-anonymous.yaml")
+    sensor = dataclasses.replace(base.sensor, range_sigma_m=0.1, form="sectors")
+    world = World(StartPose(0.0, 0.0, 0.0), Goal(500.0, 0.0), (Obstacle(1, north, east, radius),))
+    truth = TruthWorld(dataclasses.replace(base, world=world, sensor=sensor),
+                       np.random.default_rng(3))
+    errors, width_var = [], PARAMS.correlation_inflation * increment_of(72) ** 2 / 24.0
+    for _ in range(200):
+        (obs,) = blob_observations(*truth.observe_sectors(), BlobParams(range_sigma_m=0.1))
+        if obs.meas_cov[1][1] >= width_var:
+            continue                                   # the width's estimate: the fit refused
+        e = np.array([obs.range_m - math.hypot(north, east),
+                      obs.bearing_rad - math.atan2(east, north)])
+        errors.append(float(e @ np.linalg.solve(np.array(obs.meas_cov), e)))
+    assert len(errors) >= 180                          # fitted in nearly every frame
+    # the fit's R is honest (NIS mean about 2 for 2 dof, well under the 9.2 of a 99% gate)
+    assert 0.5 < np.mean(errors) < 3.0
+
+
+def increment_of(count):
+    return FOV / count
