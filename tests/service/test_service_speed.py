@@ -32,7 +32,7 @@ TEXT = open(SHIPPED).read()
     ("max_accel_mps2: 2.5", "max_accel_mps2: .nan", "commanding.max_accel_mps2"),
     ("perception_delay_s: 1.0", "perception_delay_s: -0.1", "commanding.perception_delay_s"),
     ("perception_delay_s: 1.0", "perception_delay_s: 60.0", "commanding.perception_delay_s"),
-    ("sensor_fov_deg: null", "sensor_fov_deg: 0.0", "estimator.sensor_fov_deg"),
+    ("sensor_fov_deg: 87.0", "sensor_fov_deg: 0.0", "estimator.sensor_fov_deg"),
     ("sensor_max_range_m: 40.0", "sensor_max_range_m: -40.0", "estimator.sensor_max_range_m"),
     ("look_at_threats: false", "look_at_threats: sometimes", "avoidance.look_at_threats"),
 ])
