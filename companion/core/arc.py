@@ -78,6 +78,11 @@ def fly_out(start_ne_m: np.ndarray, motion: Motion, headings_rad: np.ndarray,
     steps = int(math.ceil(horizon_s / STEP_S)) + int(math.ceil(top / max(dv, 1e-9)))
     cruise_steps = int(math.ceil(horizon_s / STEP_S))
     start = np.asarray(start_ne_m, dtype=float)
+    times = STEP_S * np.arange(1, steps + 1)
+    if j == 1:
+        positions, speeds = _fly_one(start, motion, float(headings[0]), float(commanded[0]),
+                                     steps, cruise_steps, fov_rad)
+        return Rollout(times, positions, speeds)
     course = np.full(j, motion.course_rad)
     speed = np.full(j, motion.speed_mps)
     north = np.full(j, start[0])
@@ -118,8 +123,49 @@ def fly_out(start_ne_m: np.ndarray, motion: Motion, headings_rad: np.ndarray,
         positions[:, k, 0] = north
         positions[:, k, 1] = east
         speeds[:, k] = speed
-    times = STEP_S * np.arange(1, steps + 1)
     return Rollout(times, positions, speeds)
+
+
+def _fly_one(start: np.ndarray, motion: Motion, heading: float, commanded: float, steps: int,
+             cruise_steps: int, fov_rad: float) -> tuple[np.ndarray, np.ndarray]:
+    """fly_out's loop for one command in Python floats (J = 1 is most calls: the goal heading's
+    path; numpy's per-call cost was nearly all of it). The same operations in the same order;
+    positions (1, N, 2), speeds (1, N)."""
+    dv = motion.max_accel_mps2 * STEP_S
+    half_fov = 0.5 * fov_rad
+    rate = motion.max_turn_rate_rad_s
+    lateral = motion.max_lateral_accel_mps2
+    fixed_limit = rate * STEP_S
+    course, speed = float(motion.course_rad), float(motion.speed_mps)
+    north, east = float(start[0]), float(start[1])
+    path: list[tuple[float, float]] = []
+    speeds: list[float] = []
+    for k in range(steps):
+        error = (heading - course + math.pi) % TWO_PI - math.pi
+        if k < cruise_steps:
+            target = 0.0 if abs(error) > half_fov else commanded * math.cos(error)
+        else:
+            if speed == 0.0:
+                path += [path[-1]] * (steps - k)
+                speeds += [0.0] * (steps - k)
+                break
+            target = 0.0
+        new_speed = speed + min(max(target - speed, -dv), dv)
+        mean_speed = 0.5 * (speed + new_speed)
+        if lateral is None:
+            limit = fixed_limit
+        else:
+            limit = min(rate, lateral / max(mean_speed, 1e-3)) * STEP_S
+        turn = min(max(error, -limit), limit)
+        mid = course + 0.5 * turn
+        step_m = mean_speed * STEP_S
+        north = north + step_m * math.cos(mid)
+        east = east + step_m * math.sin(mid)
+        course = course + turn
+        speed = new_speed
+        path.append((north, east))
+        speeds.append(speed)
+    return np.array(path, dtype=float).reshape(1, steps, 2), np.array(speeds).reshape(1, steps)
 
 
 def clearance(rollout: Rollout, obstacles: np.ndarray, radii: np.ndarray,
