@@ -71,3 +71,21 @@ def test_clearance_matches_the_gaps_written_out():
     assert np.array_equal(clearance(rolled, obstacles, radii, velocities, growth, start), expected)
     assert np.array_equal(clearance(rolled, obstacles, radii, velocities, growth),
                           margin.min(axis=(1, 2)))
+
+
+def test_first_passing_gives_the_all_at_once_answer():
+    from companion.core.velocity_choice import _first_passing
+    rng = np.random.default_rng(11)
+    for _ in range(300):
+        k = int(rng.integers(1, 120))
+        margins = rng.normal(-1.0 if rng.random() < 0.5 else 0.5, 1.0, k)
+        offset = rng.uniform(-math.pi, math.pi, k)
+        order = rng.permutation(k)
+        skip = int(rng.integers(0, 2))
+        ok = order[skip:][margins[order[skip:]] >= 0.0]
+        forward = ok[np.abs(offset[ok]) < 0.5 * math.pi]
+        first, ahead = _first_passing(order, skip, lambda idx: margins[idx], offset, True)
+        assert first == (int(ok[0]) if ok.size else None)
+        assert ahead == (int(forward[0]) if forward.size else None)
+        first, _ = _first_passing(order, skip, lambda idx: margins[idx], offset, False)
+        assert first == (int(ok[0]) if ok.size else None)
