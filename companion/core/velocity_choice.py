@@ -22,7 +22,7 @@ import math
 
 import numpy as np
 
-from companion.core.arc import Motion, clearance, fly_out, margins_by_obstacle
+from companion.core.arc import Motion, Rollout, clearance, fly_out, margins_by_obstacle
 from companion.core.geometry import wrap_angles
 from companion.core.guidance import GuidanceCommand, GuidanceParams
 from companion.core.seen_space import SeenSpace
@@ -72,10 +72,15 @@ def choose_velocity(pose: np.ndarray, goal_heading: float, goal_distance: float,
     if side:
         cost = cost + np.pi * (np.sign(offset) == -side)
 
+    goal_path: list = []      # the goal heading's path at cruise, when a decision rolls it out
+    same_goal = float(candidates[0]) == goal_heading     # index 0 is the goal heading, wrapped
+
     def reachable(indices: np.ndarray, speed: float) -> np.ndarray:
         """Each command's worst margin (m), the previous heading's raised by the tolerance."""
         rolled = fly_out(position, motion, candidates[indices], np.full(len(indices), speed),
                          union.lookahead_s, union.fov_rad)
+        if same_goal and speed == cruise and len(indices) == 1 and indices[0] == 0:
+            goal_path.append(rolled)
         margin = clearance(rolled, obstacles, radii, velocities, growth_mps, position)
         if seen is not None and _stopping_m(speed, motion, union) \
                 > params.safety_distance_m:
@@ -93,7 +98,8 @@ def choose_velocity(pose: np.ndarray, goal_heading: float, goal_distance: float,
     def command(index: int, speed: float, mode: str) -> GuidanceCommand:
         heading = float(candidates[index])
         urgent, ttca = _most_urgent(position, motion, goal_heading, cruise, obstacles, radii,
-                                    velocities, growth_mps, union)
+                                    velocities, growth_mps, union,
+                                    goal_path[0] if goal_path else None)
         return GuidanceCommand(speed * turn_speed_factor(yaw, heading, union.fov_rad), heading,
                                "goal" if index == 0 and mode == "avoid" else mode,
                                None if urgent is None else int(near[urgent]), ttca,
@@ -208,11 +214,13 @@ def _far_blocked(candidates: np.ndarray, goal_heading: float, position: np.ndarr
 
 def _most_urgent(position: np.ndarray, motion: Motion, goal_heading: float, cruise: float,
                  obstacles: np.ndarray, radii: np.ndarray, velocities: np.ndarray | None,
-                 growth_mps: np.ndarray | None, union: UnionParams
-                 ) -> tuple[int | None, float | None]:
-    """The obstacle the straight-to-goal path violates first, and the time of that approach."""
-    rolled = fly_out(position, motion, np.array([goal_heading]), np.array([cruise]),
-                     union.lookahead_s, union.fov_rad)
+                 growth_mps: np.ndarray | None, union: UnionParams,
+                 rolled: Rollout | None = None) -> tuple[int | None, float | None]:
+    """The obstacle the straight-to-goal path violates first, and the time of that approach.
+    ``rolled``: that path, when the caller has rolled it out already."""
+    if rolled is None:
+        rolled = fly_out(position, motion, np.array([goal_heading]), np.array([cruise]),
+                         union.lookahead_s, union.fov_rad)
     margin, when = margins_by_obstacle(rolled, obstacles, radii, velocities, growth_mps)
     violated = np.flatnonzero(margin < 0.0)
     if violated.size == 0:
