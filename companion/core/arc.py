@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from companion.core.geometry import wrap_angles
+from companion.core.geometry import TWO_PI
 
 STEP_S = 0.25                    # the roll-out's time step
 MAX_GROWTH_M = 5.0               # a mover's radius grows by at most this over a roll-out: a
@@ -77,29 +77,95 @@ def fly_out(start_ne_m: np.ndarray, motion: Motion, headings_rad: np.ndarray,
     top = max(float(commanded.max(initial=0.0)), motion.speed_mps)
     steps = int(math.ceil(horizon_s / STEP_S)) + int(math.ceil(top / max(dv, 1e-9)))
     cruise_steps = int(math.ceil(horizon_s / STEP_S))
+    start = np.asarray(start_ne_m, dtype=float)
+    times = STEP_S * np.arange(1, steps + 1)
+    if j == 1:
+        positions, speeds = _fly_one(start, motion, float(headings[0]), float(commanded[0]),
+                                     steps, cruise_steps, fov_rad)
+        return Rollout(times, positions, speeds)
     course = np.full(j, motion.course_rad)
     speed = np.full(j, motion.speed_mps)
-    position = np.tile(np.asarray(start_ne_m, dtype=float), (j, 1))
+    north = np.full(j, start[0])
+    east = np.full(j, start[1])
     positions = np.empty((j, steps, 2))
     speeds = np.empty((j, steps))
+    # The loop runs once per time step on (J,) arrays: plain ufunc calls (np.clip and
+    # np.stack cost more in dispatch than in arithmetic here), each the same operation as
+    # turn_rate_at, wrap_angles and a clip, so the paths are the same to the last bit.
+    half_fov = 0.5 * fov_rad
+    rate = motion.max_turn_rate_rad_s
+    lateral = motion.max_lateral_accel_mps2
+    fixed_limit = rate * STEP_S
+    stopped = np.zeros(j)
     for k in range(steps):
-        error = wrap_angles(headings - course)
+        error = (headings - course + math.pi) % TWO_PI - math.pi        # wrap_angles
         if k < cruise_steps:
-            target = np.where(np.abs(error) > 0.5 * fov_rad, 0.0, commanded * np.cos(error))
+            target = np.where(np.abs(error) > half_fov, 0.0, commanded * np.cos(error))
         else:
-            target = np.zeros(j)
-        new_speed = speed + np.clip(target - speed, -dv, dv)
+            if not speed.any():          # all at rest: nothing moves any more
+                positions[:, k:] = positions[:, k - 1:k]
+                speeds[:, k:] = 0.0
+                break
+            target = stopped
+        new_speed = speed + np.minimum(np.maximum(target - speed, -dv), dv)
         mean_speed = 0.5 * (speed + new_speed)
-        limit = motion.turn_rate_at(mean_speed) * STEP_S
-        turn = np.clip(error, -limit, limit)
+        if lateral is None:
+            limit = fixed_limit
+        else:
+            limit = np.minimum(rate, lateral / np.maximum(mean_speed, 1e-3)) * STEP_S
+        turn = np.minimum(np.maximum(error, -limit), limit)
         mid = course + 0.5 * turn
-        position = position + (mean_speed * STEP_S)[:, None] * np.stack([np.cos(mid), np.sin(mid)], 1)
+        step_m = mean_speed * STEP_S
+        north = north + step_m * np.cos(mid)
+        east = east + step_m * np.sin(mid)
         course = course + turn
         speed = new_speed
-        positions[:, k] = position
+        positions[:, k, 0] = north
+        positions[:, k, 1] = east
         speeds[:, k] = speed
-    times = STEP_S * np.arange(1, steps + 1)
     return Rollout(times, positions, speeds)
+
+
+def _fly_one(start: np.ndarray, motion: Motion, heading: float, commanded: float, steps: int,
+             cruise_steps: int, fov_rad: float) -> tuple[np.ndarray, np.ndarray]:
+    """fly_out's loop for one command in Python floats (J = 1 is most calls: the goal heading's
+    path; numpy's per-call cost was nearly all of it). The same operations in the same order;
+    positions (1, N, 2), speeds (1, N)."""
+    dv = motion.max_accel_mps2 * STEP_S
+    half_fov = 0.5 * fov_rad
+    rate = motion.max_turn_rate_rad_s
+    lateral = motion.max_lateral_accel_mps2
+    fixed_limit = rate * STEP_S
+    course, speed = float(motion.course_rad), float(motion.speed_mps)
+    north, east = float(start[0]), float(start[1])
+    path: list[tuple[float, float]] = []
+    speeds: list[float] = []
+    for k in range(steps):
+        error = (heading - course + math.pi) % TWO_PI - math.pi
+        if k < cruise_steps:
+            target = 0.0 if abs(error) > half_fov else commanded * math.cos(error)
+        else:
+            if speed == 0.0:
+                path += [path[-1]] * (steps - k)
+                speeds += [0.0] * (steps - k)
+                break
+            target = 0.0
+        new_speed = speed + min(max(target - speed, -dv), dv)
+        mean_speed = 0.5 * (speed + new_speed)
+        if lateral is None:
+            limit = fixed_limit
+        else:
+            limit = min(rate, lateral / max(mean_speed, 1e-3)) * STEP_S
+        turn = min(max(error, -limit), limit)
+        mid = course + 0.5 * turn
+        step_m = mean_speed * STEP_S
+        north = north + step_m * math.cos(mid)
+        east = east + step_m * math.sin(mid)
+        course = course + turn
+        speed = new_speed
+        path.append((north, east))
+        speeds.append(speed)
+    return np.array(path, dtype=float).reshape(1, steps, 2), np.array(speeds).reshape(1, steps)
 
 
 def clearance(rollout: Rollout, obstacles: np.ndarray, radii: np.ndarray,
@@ -122,12 +188,15 @@ def clearance(rollout: Rollout, obstacles: np.ndarray, radii: np.ndarray,
                                        else t[:, None, None] * velocities[None, :, :])  # (N, n, 2)
     grown = radii[None, :] + (0.0 if growth_mps is None
                               else np.minimum(t[:, None] * growth_mps[None, :], MAX_GROWTH_M))
-    gaps = rollout.positions[:, :, None, :] - centres[None, :, :, :]                   # (J,N,n,2)
-    margin = np.hypot(gaps[..., 0], gaps[..., 1]) - grown[None, :, :]
+    # north and east apart: no (J, N, n, 2) array of gaps
+    north = rollout.positions[:, :, 0][:, :, None] - centres[None, :, :, 0]            # (J,N,n)
+    east = rollout.positions[:, :, 1][:, :, None] - centres[None, :, :, 1]
+    margin = (np.hypot(north, east) - grown[None, :, :]).min(axis=1)                   # (J, n)
     if start_ne_m is not None:
+        # after the minimum over time: subtracting a constant keeps the order of the values
         now = np.hypot(*(obstacles - np.asarray(start_ne_m)).T) - radii               # (n,)
-        margin = margin - np.minimum(now, 0.0)[None, None, :]
-    return margin.min(axis=(1, 2))
+        margin = margin - np.minimum(now, 0.0)[None, :]
+    return margin.min(axis=1)
 
 
 def margins_by_obstacle(rollout: Rollout, obstacles: np.ndarray, radii: np.ndarray,

@@ -22,7 +22,7 @@ import math
 
 import numpy as np
 
-from companion.core.arc import Motion, clearance, fly_out, margins_by_obstacle
+from companion.core.arc import Motion, Rollout, clearance, fly_out, margins_by_obstacle
 from companion.core.geometry import wrap_angles
 from companion.core.guidance import GuidanceCommand, GuidanceParams
 from companion.core.seen_space import SeenSpace
@@ -32,6 +32,7 @@ from companion.core.union import (Geometry, UnionParams, blocking, candidate_hea
 SPEED_FRACTIONS = (1.0, 0.75, 0.5, 0.25)
 KEEP_TOLERANCE_M = 0.25    # the previous heading stays reachable down to d minus this: a choice
                            # on the edge of reachable must not flip every decision
+FIRST_CHUNK = 32           # candidates rolled out before the rest (see _first_passing)
 GRID = np.linspace(-math.pi, math.pi, 72, endpoint=False)     # 5 degrees, beside the cone edges
 
 
@@ -71,10 +72,15 @@ def choose_velocity(pose: np.ndarray, goal_heading: float, goal_distance: float,
     if side:
         cost = cost + np.pi * (np.sign(offset) == -side)
 
+    goal_path: list = []      # the goal heading's path at cruise, when a decision rolls it out
+    same_goal = float(candidates[0]) == goal_heading     # index 0 is the goal heading, wrapped
+
     def reachable(indices: np.ndarray, speed: float) -> np.ndarray:
         """Each command's worst margin (m), the previous heading's raised by the tolerance."""
         rolled = fly_out(position, motion, candidates[indices], np.full(len(indices), speed),
                          union.lookahead_s, union.fov_rad)
+        if same_goal and speed == cruise and len(indices) == 1 and indices[0] == 0:
+            goal_path.append(rolled)
         margin = clearance(rolled, obstacles, radii, velocities, growth_mps, position)
         if seen is not None and _stopping_m(speed, motion, union) \
                 > params.safety_distance_m:
@@ -92,7 +98,8 @@ def choose_velocity(pose: np.ndarray, goal_heading: float, goal_distance: float,
     def command(index: int, speed: float, mode: str) -> GuidanceCommand:
         heading = float(candidates[index])
         urgent, ttca = _most_urgent(position, motion, goal_heading, cruise, obstacles, radii,
-                                    velocities, growth_mps, union)
+                                    velocities, growth_mps, union,
+                                    goal_path[0] if goal_path else None)
         return GuidanceCommand(speed * turn_speed_factor(yaw, heading, union.fov_rad), heading,
                                "goal" if index == 0 and mode == "avoid" else mode,
                                None if urgent is None else int(near[urgent]), ttca,
@@ -112,29 +119,30 @@ def choose_velocity(pose: np.ndarray, goal_heading: float, goal_distance: float,
         if committed.size:
             free = committed
         free = free[np.argsort(cost[free], kind="stable")]
-        if free[0] == 0 and reachable(free[:1], speed)[0] >= 0.0:
-            return command(0, speed, "avoid")
-        margin = reachable(free, speed)
-        ok = free[margin >= 0.0]
-        if ok.size == 0:
+        skip = 0
+        if free[0] == 0:
+            if reachable(free[:1], speed)[0] >= 0.0:
+                return command(0, speed, "avoid")
+            skip = 1                     # the goal heading is not reachable: scan the others
+        first, first_forward = _first_passing(free, skip, lambda k: reachable(k, speed),
+                                              offset, velocities is not None)
+        if first is None:
             continue
-        if velocities is None or abs(offset[ok[0]]) < 0.5 * np.pi:
-            return command(int(ok[0]), speed, "avoid")
+        if velocities is None or abs(offset[first]) < 0.5 * np.pi:
+            return command(first, speed, "avoid")
         # Flying away from the goal to keep clear of a mover: at full speed beside a crossing
         # mover that heading can stay free for as long as the mover goes on (traffic worlds: an
         # escort 300 m off the way); a slower speed that makes headway, behind it, comes first.
-        away = away or command(int(ok[0]), speed, "avoid")
-        forward = ok[np.abs(offset[ok]) < 0.5 * np.pi]
-        if forward.size:
-            return command(int(forward[0]), speed, "avoid")
+        away = away or command(first, speed, "avoid")
+        if first_forward is not None:
+            return command(first_forward, speed, "avoid")
     if away is not None:
         return away
     everything = np.argsort(cost, kind="stable")
     for speed in (0.25 * cruise, 0.0):
-        margin = flyable(everything, speed)
-        ok = everything[margin >= 0.0]
-        if ok.size:
-            return command(int(ok[0]), speed, "slow" if speed else "stop")
+        first, _ = _first_passing(everything, 0, lambda k: flyable(k, speed), offset, False)
+        if first is not None:
+            return command(first, speed, "slow" if speed else "stop")
     best_margin, best = -np.inf, (0, 0.0)
     for speed in (0.0, 0.5 * cruise, cruise):
         margin = flyable(everything, speed)
@@ -142,6 +150,33 @@ def choose_velocity(pose: np.ndarray, goal_heading: float, goal_distance: float,
         if margin[k] > best_margin + 0.5:       # a slower option wins ties: less to go wrong
             best_margin, best = float(margin[k]), (int(everything[k]), speed)
     return command(best[0], best[1], "hold")
+
+
+def _first_passing(order: np.ndarray, skip: int, margin_of, offset: np.ndarray,
+                   forward_too: bool) -> tuple[int | None, int | None]:
+    """The first candidate in ``order[skip:]`` whose margin is >= 0 and (``forward_too``) the
+    first such within 90 degrees of the goal; None where there is none.
+
+    Margins are computed the first FIRST_CHUNK candidates first, then the rest only if the
+    answer is not there: the best-scored candidates usually pass, and a roll-out's margin
+    depends on its own command only, so the answer is the one of rolling out all at once.
+    """
+    first = forward = None
+    position, size = skip, FIRST_CHUNK
+    while position < len(order):
+        chunk = order[position:position + size]
+        passing = chunk[margin_of(chunk) >= 0.0]
+        if passing.size:
+            if first is None:
+                first = int(passing[0])
+            if not forward_too:
+                break
+            ahead = passing[np.abs(offset[passing]) < 0.5 * np.pi]
+            if ahead.size:
+                forward = int(ahead[0])
+                break
+        position, size = position + size, len(order)
+    return first, forward
 
 
 def _stopping_m(speed: float, motion: Motion, union: UnionParams) -> float:
@@ -179,11 +214,13 @@ def _far_blocked(candidates: np.ndarray, goal_heading: float, position: np.ndarr
 
 def _most_urgent(position: np.ndarray, motion: Motion, goal_heading: float, cruise: float,
                  obstacles: np.ndarray, radii: np.ndarray, velocities: np.ndarray | None,
-                 growth_mps: np.ndarray | None, union: UnionParams
-                 ) -> tuple[int | None, float | None]:
-    """The obstacle the straight-to-goal path violates first, and the time of that approach."""
-    rolled = fly_out(position, motion, np.array([goal_heading]), np.array([cruise]),
-                     union.lookahead_s, union.fov_rad)
+                 growth_mps: np.ndarray | None, union: UnionParams,
+                 rolled: Rollout | None = None) -> tuple[int | None, float | None]:
+    """The obstacle the straight-to-goal path violates first, and the time of that approach.
+    ``rolled``: that path, when the caller has rolled it out already."""
+    if rolled is None:
+        rolled = fly_out(position, motion, np.array([goal_heading]), np.array([cruise]),
+                         union.lookahead_s, union.fov_rad)
     margin, when = margins_by_obstacle(rolled, obstacles, radii, velocities, growth_mps)
     violated = np.flatnonzero(margin < 0.0)
     if violated.size == 0:
