@@ -18,7 +18,10 @@ def test_ctrl_c_stops_the_demo_and_both_children(tmp_path):
     # Output to a file, not a pipe: an unread pipe that fills up would block the demo itself.
     log = tmp_path / "demo.out"
     with open(log, "w") as out:
-        demo = subprocess.Popen([sys.executable, "-m", "companion", "demo", "--speedup", "1",
+        # On the wall clock at real time (lock-step would finish the flight in a few seconds,
+        # before the signal): the signal lands mid-flight.
+        demo = subprocess.Popen([sys.executable, "-m", "companion", "demo", "--no-lockstep",
+                                 "--speedup", "1",
                                  "--keep", str(keep)], cwd=REPO, stdout=out,
                                 stderr=subprocess.STDOUT, text=True)
     try:
