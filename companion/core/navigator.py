@@ -419,11 +419,7 @@ class Navigator:
             return report
         moved = self._moved_young(place(self._dr_pose, z))
         if moved is not None:
-            if obs.blob is None:
-                # (not a depth blob's point: a wall's chain points fall at other places along it
-                # each frame; restarting its landmarks there made them hop, and the pose NEES on
-                # urban worlds was in band on 58% of steps instead of 97%, 30 runs)
-                self._relocate(moved, z, obs, used)
+            self._relocate(moved, z, obs, used)
             self._note_young(moved, obs, "moved")
             return UpdateReport("moved", None, None, None, None)
         if len(self.movers):
