@@ -32,7 +32,6 @@ Refinements (issue 15, measured on dense and urban sector worlds):
 """
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -102,8 +101,7 @@ def blob_observations(ranges_m: np.ndarray, bearings_rad: np.ndarray, increment_
     """Id-less observations, each with its own R, for one frame of sectors: ranges (n,) in metres
     (NaN where nothing was seen) at bin-centre bearings (n,)."""
     out: list[Observation] = []
-    for number, blob in enumerate(group_bins(ranges_m, params.max_jump_m)):
-        first = len(out)
+    for blob in group_bins(ranges_m, params.max_jump_m):
         span = slice(blob.first, blob.last + 1)
         rng, brg = ranges_m[span], bearings_rad[span]
         surface = float(rng.min())
@@ -125,7 +123,6 @@ def blob_observations(ranges_m: np.ndarray, bearings_rad: np.ndarray, increment_
         else:
             out.extend(_chain(rng, brg, increment_rad, params,
                               (_real_end(ranges_m, blob.first, -1), _real_end(ranges_m, blob.last, 1))))
-        out[first:] = [dataclasses.replace(obs, blob=number) for obs in out[first:]]
     return out
 
 

@@ -102,14 +102,11 @@ class Observation:
 
     ``meas_cov``: this observation's own R, ((var_r, cov), (cov, var_b)) in m^2, m rad, rad^2
     (a landmark made from a depth camera's sectors knows its spread); None: the filter's R.
-    ``blob``: the depth-camera blob of this frame it was made from (core/blobs.py): the points of
-    one blob are distinct surfaces by construction, never two returns of one thing.
     """
     range_m: float
     bearing_rad: float
     obstacle_id: int | None = None
     meas_cov: tuple | None = None
-    blob: int | None = None
 
     def meas_cov_array(self) -> np.ndarray | None:
         return None if self.meas_cov is None else np.asarray(self.meas_cov, dtype=float)

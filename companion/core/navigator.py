@@ -124,8 +124,7 @@ class Navigator:
         self._frame_hits: set[int] = set()      # landmark keys detected in the current frame
         self._frame_near: set[int] = set()      # ... come near by an ambiguous observation
         self._frame_added: set[int] = set()
-        self._frame_taken: set[int] = set()
-        self._frame_blob: dict[int, int] = {}     # ... planned for update by the frame's association
+        self._frame_taken: set[int] = set()     # ... planned for update by the frame's association
         self._guidance_keys: list = []          # landmark key of each landmark row of obstacles()
 
     # ------------------------------------------------------ timed inputs
@@ -327,7 +326,6 @@ class Navigator:
         if self.seen is not None:
             self.seen.mark(self.slam.pose)
         self._frame_hits, self._frame_near, self._frame_added = set(), set(), set()
-        self._frame_blob = {}                  # landmark born this frame -> its blob, if any
         noise = self.slam.noise
         observations = with_range_model(observations, noise.range_sigma_m,
                                         self.options.range_sigma_k_per_m, noise.bearing_sigma_rad)
@@ -431,8 +429,7 @@ class Navigator:
             # New against the map the frame began with; one born from this frame's own earlier
             # observation may be what this one sees (two returns of one post): ambiguous then.
             nis, _ = slam.nis_all(z, obs.meas_cov_array())
-            near = [i for i in range(len(nis)) if ids[i] in self._frame_added
-                    and (obs.blob is None or self._frame_blob.get(ids[i]) != obs.blob)]
+            near = [i for i in range(len(nis)) if ids[i] in self._frame_added]
             if near and float(np.min(nis[near])) <= slam.gates.new_landmark_nis:
                 action, key = "ambiguous", ids[near[int(np.argmin(nis[near]))]]
         if action == "ambiguous":
@@ -448,8 +445,6 @@ class Navigator:
             self._next_anonymous_id -= 1
             slam.set_landmark_id(report.landmark_index, key)
             self._born(key)
-            if obs.blob is not None:
-                self._frame_blob[key] = obs.blob
             self._note_young(key, obs, "added")
         return report
 

@@ -172,17 +172,3 @@ def test_an_ambiguous_observation_never_updates_the_landmark_another_one_took():
     single.observe([Observation(30.0, 0.0, None)])
     single.observe([Observation(30.1, 0.0, None)])
     assert np.allclose(nav.slam.cov, single.slam.cov) and not np.allclose(nav.slam.cov, before)
-
-
-def test_points_of_one_depth_blob_are_never_two_returns_of_one_thing():
-    # A wall's chain: surface points 2 m apart along it at 30 m, loosely weighted (the points
-    # between a chain's anchors, sigma 1.5 m). Each gates on the one born just before it, but
-    # they come from one blob, distinct surfaces by construction: each is a landmark of its own.
-    # The same two returns from two blobs (two detections of one thing) stay one landmark.
-    loose = ((1.5 ** 2, 0.0), (0.0, 0.05 ** 2))
-    chain = [Observation(30.0, b, None, loose, blob=0) for b in (0.0, 0.067)]
-    nav = realistic_navigator()
-    assert [r.action for r in nav.observe(chain)[:2]] == ["added", "added"]
-    nav = realistic_navigator()
-    apart = [dataclasses.replace(obs, blob=k) for k, obs in enumerate(chain)]
-    assert [r.action for r in nav.observe(apart)[:2]] == ["added", "ambiguous"]
