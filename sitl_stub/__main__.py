@@ -67,6 +67,7 @@ class TruthLog:
     def __init__(self, path: Path) -> None:
         self._file = open(path, "w", encoding="utf-8")
         self._last_flush = time.monotonic()
+        self._shapes_written = False
 
     def write(self, t_s: float, sim: Simulation, ap: Autopilot) -> None:
         truth, odom = sim.truth, sim.odometry
@@ -84,6 +85,11 @@ class TruthLog:
                                       for shape in sim.scenario.world.shapes), default=None),
             "odom_north_m": odom.north_m, "odom_east_m": odom.east_m, "odom_yaw_rad": odom.yaw_rad,
         }
+        if not self._shapes_written:      # static: once, on the first line (a viewer reads it)
+            record["shapes"] = [{"id": shape.obstacle_id, "kind": shape.kind,
+                                 "outline": [list(point) for point in shape.outline]}
+                                for shape in sim.scenario.world.shapes]
+            self._shapes_written = True
         self._file.write(json.dumps(record) + "\n")
         now = time.monotonic()
         if now - self._last_flush >= 1.0:

@@ -48,6 +48,7 @@ class ViewModel:
         self.estimated = Path()
         self.true = Path()
         self.true_obstacles: list[dict] = []
+        self.true_shapes: list[dict] = []  # walls and buildings: the truth log's first line
         self.true_pose: dict | None = None
         self.datagrams = 0
         self.refused = 0
@@ -78,6 +79,10 @@ class ViewModel:
         """Records of the stub's truth log (north_m, east_m, yaw_rad, obstacles)."""
         if restarted:
             self.true.restart()
+            self.true_shapes = []
+        for record in records:
+            if isinstance(record.get("shapes"), list):
+                self.true_shapes = [s for s in (_shape(raw) for raw in record["shapes"]) if s]
         usable = [r for r in records if isinstance(r.get("north_m"), (int, float))
                   and isinstance(r.get("east_m"), (int, float))]
         if not usable and not restarted:
@@ -104,13 +109,15 @@ class ViewModel:
         return {"state": self.state, "info": self.summary(),
                 "estimated_path": self._path(self.estimated, 0),
                 "true_path": self._path(self.true, 0),
-                "true_obstacles": self.true_obstacles, "true_pose": self.true_pose}
+                "true_obstacles": self.true_obstacles, "true_shapes": self.true_shapes,
+                "true_pose": self.true_pose}
 
     def delta(self, sent: dict) -> dict:
         """What a stream client lacks; ``sent`` ({'estimated': (epoch, n), 'true': ...}) is
         updated in place."""
         out = {"state": self.state, "info": self.summary(),
-               "true_obstacles": self.true_obstacles, "true_pose": self.true_pose}
+               "true_obstacles": self.true_obstacles, "true_shapes": self.true_shapes,
+               "true_pose": self.true_pose}
         for name, path in (("estimated", self.estimated), ("true", self.true)):
             epoch, count = sent.get(name, (None, 0))
             start = count if epoch == path.epoch else 0
@@ -121,6 +128,21 @@ class ViewModel:
     @staticmethod
     def _path(path: Path, start: int) -> dict:
         return {"epoch": path.epoch, "from": start, "points": path.points[start:]}
+
+
+def _shape(raw) -> dict | None:
+    """A wall or building of the truth log as the page draws it; None if it is not one."""
+    if not isinstance(raw, dict) or not isinstance(raw.get("outline"), list):
+        return None
+    outline = []
+    for point in raw["outline"]:
+        if not (isinstance(point, list) and len(point) == 2
+                and all(isinstance(v, (int, float)) and math.isfinite(v) for v in point)):
+            return None
+        outline.append([float(point[0]), float(point[1])])
+    if len(outline) < 3:
+        return None
+    return {"id": raw.get("id"), "kind": str(raw.get("kind", "")), "outline": outline}
 
 
 def _went_back(previous: dict, state: dict) -> bool:

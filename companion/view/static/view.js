@@ -9,7 +9,7 @@ const SIGMAS = 3;
 
 const view = {
   state: null, info: null, est: [], tru: [], estEpoch: null, truEpoch: null,
-  trueObstacles: [], truePose: null, updates: 0, lastSeq: null, lastNewAt: 0,
+  trueObstacles: [], trueShapes: [], truePose: null, updates: 0, lastSeq: null, lastNewAt: 0,
   orientation: null,            // "up" (north up) | "right" (north right); null: automatic
   follow: false, pending: false,
 };
@@ -33,6 +33,7 @@ function onData(msg) {
   view.state = msg.state;
   view.info = msg.info;
   view.trueObstacles = msg.true_obstacles || [];
+  view.trueShapes = msg.true_shapes || [];
   view.truePose = msg.true_pose;
   applyPath("est", msg.estimated_path);
   applyPath("tru", msg.true_path);
@@ -55,6 +56,7 @@ function bounds() {
   for (const o of view.trueObstacles) {
     pts.push([o.north_m - o.radius_m, o.east_m - o.radius_m], [o.north_m + o.radius_m, o.east_m + o.radius_m]);
   }
+  for (const shape of view.trueShapes) for (const p of shape.outline) pts.push(p);
   if (s) {
     const d = s.safety_distance_m || 0;
     for (const m of s.landmarks) pts.push([m.north_m - d, m.east_m - d], [m.north_m + d, m.east_m + d]);
@@ -187,6 +189,10 @@ function render() {
     const [x, y] = P.pt(o.north_m, o.east_m);
     out.push(`<g class="true-obstacle" data-id="${esc(o.id)}"><circle class="body" cx="${f(x)}" cy="${f(y)}" r="${f(Math.max(o.radius_m * P.k, 3))}"/></g>`);
   }
+  for (const shape of view.trueShapes) {
+    const d = shape.outline.map(([n, e], i) => { const [x, y] = P.pt(n, e); return `${i ? "L" : "M"}${f(x)},${f(y)}`; }).join(" ");
+    out.push(`<g class="true-shape" data-id="${esc(shape.id)}" data-kind="${esc(shape.kind)}"><path class="body" d="${d} Z"/></g>`);
+  }
   out.push(polyline(P, view.tru, "true-path"));
   out.push(polyline(P, view.est, "est-path"));
   if (s) {
@@ -220,6 +226,7 @@ function render() {
   map.dataset.landmarks = s ? s.landmarks.length : 0;
   map.dataset.movers = s ? s.movers.length : 0;
   map.dataset.trueObstacles = view.trueObstacles.length;
+  map.dataset.trueShapes = view.trueShapes.length;
   map.dataset.updates = view.updates;
   map.dataset.seq = s ? s.seq : "";           // the datagram this drawing shows
   $("rotate").textContent = P.orientation === "up" ? "north \u2191" : "north \u2192";
