@@ -18,7 +18,9 @@ What it does, in the autopilot's terms:
 - Frames: on the first LOCAL_POSITION_NED at or after each nominal frame time (sensor.rate_hz on
   the autopilot's clock), from that position and the ATTITUDE yaw (carried forward by its yaw
   rate, at most MAX_ATTITUDE_AGE_S), through the stub's camera model (`camera.observe`);
-  stamped with that message's time_boot_ms. The camera's view is the autopilot's estimate of the
+  stamped with that message's time_boot_ms; `sensor.form` as the in-stub camera honours it
+  (sectors: the nearest surface per bin, ray-cast against circles, walls and buildings; both:
+  centres and sectors). The camera's view is the autopilot's estimate of the
   pose (in SITL within a few decimetres of the truth), level, at the vehicle's altitude: the
   scenario's obstacles are columns.
 - Moving obstacles start from their scenario positions when the vehicle first arms (a real
@@ -81,6 +83,7 @@ class ExternalCamera:
         self.scenario = scenario
         self.cfg = scenario.sensor
         self.sectors = self.cfg.sector_message if sectors is None else sectors
+        self._outlines = [list(shape.outline) for shape in scenario.world.shapes]
         self.rng = rng
         self.sysid = sysid
         self._pinned_placement = placement
@@ -185,9 +188,18 @@ class ExternalCamera:
         east_m = local_east_m + self.placement.east_m
         motion_s = 0.0 if self.armed_t_s is None else max(0.0, t_s - self.armed_t_s)
         obstacles = obstacles_at(self.scenario.world.obstacles, motion_s)
-        detections = camera.observe(north_m, east_m, yaw, obstacles, self.cfg, self.rng)
+        form = self.cfg.form
+        detections = ([] if form == "sectors" else
+                      camera.observe(north_m, east_m, yaw, obstacles, self.cfg, self.rng))
         out = [tm.obstacle_distance_3d(det, t_s, self.cfg) for det in detections]
-        if self.sectors or not detections:
+        if form in ("sectors", "both"):
+            # a depth camera: the nearest surface per bin, ray-cast against every circle, wall
+            # and building from the autopilot's pose, as the in-stub camera does
+            scan = camera.ray_cast_sectors_cm(north_m, east_m, yaw, obstacles, self.cfg, self.rng,
+                                              self._outlines)
+            out.append(tm.obstacle_distance([], t_s, self.cfg, scan))
+            self.counters["sector_messages"] += 1
+        elif self.sectors or not detections:
             # Nothing seen is still a frame (every sector at max_distance + 1), as the stub's
             # own camera and depth cameras send it: the receiver knows the camera is live.
             out.append(tm.obstacle_distance(detections, t_s, self.cfg))

@@ -187,3 +187,20 @@ def test_data_streams_too_only_if_no_interval_request_was_accepted():
     acked.handle(heard(7, 1, mavlink.MAVLink_command_ack_message(
         mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, mavlink.MAV_RESULT_ACCEPTED, 0, 0, 7, 100)), 0.0)
     assert requests(acked, 6) == []
+
+
+WALLS = load_scenario(str(PAPER.parent / "walls.yaml"))   # sensor.form: sectors; a wall at 65 m north
+
+
+def test_a_depth_camera_beside_the_autopilot_sees_walls_in_its_sectors():
+    quiet = dataclasses.replace(WALLS, sensor=dataclasses.replace(
+        WALLS.sensor, range_sigma_m=0.0, bearing_sigma_rad=0.0, miss_probability=0.0,
+        false_alarm_rate_hz=0.0))
+    cam = ready_camera(quiet)
+    out = fly(cam, 1000, 1100, north_m=20.0)                    # the EKF origin is 20 m north
+    assert of_type(out, "OBSTACLE_DISTANCE_3D") == []           # a depth camera: sectors only
+    (sectors,) = of_type(out, "OBSTACLE_DISTANCE")
+    # the wall's face at 65 - 0.2 m north, 40 m north of the origin: 24.8 m ahead
+    seen = [d for d in sectors.distances if d <= sectors.max_distance]
+    assert seen and abs(min(seen) - 2480) <= 3
+    assert cam.counters["sector_messages"] == 1 and cam.counters["reports"] == 0
