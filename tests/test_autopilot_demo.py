@@ -13,7 +13,7 @@ import pytest
 from companion import ardupilot_sitl as sitl
 from companion.adapters.codec import mavlink
 from companion.autopilot_demo import service_config, sitl_home
-from companion.config import load_scenario
+from companion.config import load_config, load_scenario
 from companion.core.flat_earth import to_lat_lon_deg, to_north_east_m
 from companion.flight_record import FlightRecorder, takeoff_checks
 
@@ -37,6 +37,19 @@ def test_home_is_the_start_and_the_goal_is_relative_to_it():
     assert to_north_east_m(origin.lat_deg, origin.lon_deg, goal.lat_deg, goal.lon_deg) == \
         pytest.approx((180.0, 0.0), abs=1e-6)
     assert config.flight.takeoff_alt_m == 12.0
+
+
+def test_the_filter_gets_the_autopilots_odometry_noise_and_the_scenarios_camera():
+    """Beside ArduCopter the velocity and yaw are its EKF's, not the stub's noise model: the
+    real-vehicle config's figures (2 deg yaw); the camera is the stub's: the scenario's R."""
+    real = load_config(REPO / "config" / "companion.yaml").estimator
+    estimator = service_config(PAPER, 10.0).estimator
+    assert PAPER.estimator_config(flown_as="multicopter").yaw_sigma_deg != real.yaw_sigma_deg
+    for key in ("yaw_sigma_deg", "yaw_rate_sigma_deg_s", "initial_yaw_sigma_deg",
+                "vel_north_sigma_mps", "vel_east_sigma_mps"):
+        assert getattr(estimator, key) == getattr(real, key), key
+    assert estimator.range_sigma_m == PAPER.sensor.range_sigma_m
+    assert estimator.bearing_sigma_deg == PAPER.sensor.bearing_sigma_deg
 
 
 def test_flat_earth_round_trip():
