@@ -98,6 +98,7 @@ class Navigator:
         # landmark on probation already flown around as a mover (_young_motion)
         self.watching: int | tuple | None = None
         self._young_movers: list[tuple] = []  # (key, position, velocity) of those, this decision
+        self._young_spread: np.ndarray | None = None   # their extrapolation's sigma, m (by row)
         self._last_heading: float | None = None
         self._side = 0
         self.commitment = Commitment()  # the velocity choice's side, kept by progress
@@ -629,17 +630,21 @@ class Navigator:
                     and speed > self.mover_params.speed_sigmas * sigma:
                 found.append((row, velocity, sigma, float(np.mean(young.times))))
         self._young_movers = []
+        self._young_spread = None
         if not found:
             return obstacles, velocities, growth
         n = len(obstacles)
         obstacles = np.array(obstacles, dtype=float)
         velocities = np.zeros((n, 2)) if velocities is None else velocities.copy()
         growth = np.zeros(n) if growth is None else growth.copy()
+        self._young_spread = np.zeros(n)
         for row, velocity, sigma, mean_t in found:
             # the landmark's static estimate sits near its sightings' mean: move it on from there
             obstacles[row] = obstacles[row] + velocity * (self.clock_s - mean_t)
             velocities[row] = velocity
             growth[row] = self.union.mover_sigmas * sigma
+            # ... and that extrapolation is as uncertain as the velocity times its age
+            self._young_spread[row] = self.union.mover_sigmas * sigma * (self.clock_s - mean_t)
             self._young_movers.append((self._guidance_keys[row], obstacles[row].copy(), velocity))
         return obstacles, velocities, growth
 
@@ -719,7 +724,7 @@ class Navigator:
             command = guide_union(pose, self.goal, obstacles, rel_covs, self.params, self.union,
                                   self._last_heading, self.commitment.side if motion is not None
                                   else self._side, velocities, motion, growth, reach or None,
-                                  self.seen)
+                                  self.seen, self._young_spread if motion is not None else None)
             self._side = command.side
             if motion is not None and command.mode != "arrived":
                 self.commitment = self.commitment.after(command.side, goal_distance)
