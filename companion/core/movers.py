@@ -40,6 +40,7 @@ class MoverState:
     velocity_ne_mps: np.ndarray
     position_cov: np.ndarray
     velocity_cov: np.ndarray | None = None     # (2,2)
+    updates: int = 0                           # sightings absorbed since the track began
 
 
 def mover_growth(movers: list[MoverState], rows: int, sigmas: float) -> np.ndarray | None:
@@ -56,6 +57,25 @@ def mover_growth(movers: list[MoverState], rows: int, sigmas: float) -> np.ndarr
     return growth
 
 
+def mover_spread(movers: list[MoverState], rows: int, sigmas: float,
+                 min_updates: int) -> np.ndarray | None:
+    """(rows,) how far each obstacle row may be from its estimate now (m): ``sigmas`` standard
+    deviations of a mover track's position along its worst axis, for the tracks that
+    ``min_updates`` sightings have confirmed; 0 for the others and for the static rows that come
+    first; None without such tracks. A track out of view coasts: its position's covariance, and
+    so this, grows until it is seen again. A track with fewer sightings gets none: clutter's
+    false alarms start tracks that are never seen again, and widening those lengthened routes
+    through cluttered worlds."""
+    spread = np.zeros(rows)
+    for k, mover in enumerate(movers):
+        if mover.updates < min_updates:
+            continue
+        cov = np.asarray(mover.position_cov, dtype=float)
+        worst = float(np.linalg.eigvalsh(0.5 * (cov + cov.T))[-1])
+        spread[rows - len(movers) + k] = sigmas * math.sqrt(max(worst, 0.0))
+    return spread if spread.any() else None
+
+
 def world_measurement(pose: np.ndarray, pose_cov: np.ndarray, z: np.ndarray,
                       meas_cov: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """A range-bearing observation as a world point (2,) and its covariance (2,2)."""
@@ -69,6 +89,7 @@ class MoverTracker:
     def __init__(self, params: MoverParams = MoverParams()) -> None:
         self.params = params
         self._tracks: dict[int, tuple[KalmanFilter, float, int | None]] = {}
+        self._updates: dict[int, int] = {}
         self._next_id = 1
         self.by_obstacle_id: dict[int, int] = {}
 
@@ -114,6 +135,7 @@ class MoverTracker:
         nis = float(innovation @ np.linalg.solve(s, innovation))
         kf.update(position, R=position_cov)
         kf.P = 0.5 * (kf.P + kf.P.T)
+        self._updates[track_id] = self._updates.get(track_id, 0) + 1
         return nis
 
     def nearest(self, t_s: float, position: np.ndarray, position_cov: np.ndarray) -> int | None:
@@ -136,7 +158,8 @@ class MoverTracker:
         cov = (kf.P[:2, :2] + dt * (kf.P[:2, 2:] + kf.P[2:, :2]) + dt * dt * kf.P[2:, 2:]
                + q * dt ** 4 / 4.0 * np.eye(2))
         vel_cov = kf.P[2:, 2:] + q * dt * dt * np.eye(2)
-        return MoverState(track_id, oid, position, kf.x[2:].copy(), cov, vel_cov)
+        return MoverState(track_id, oid, position, kf.x[2:].copy(), cov, vel_cov,
+                          self._updates.get(track_id, 0))
 
     def states(self, t_s: float) -> list[MoverState]:
         return [self.state(track_id, t_s) for track_id in self._tracks]
@@ -147,6 +170,7 @@ class MoverTracker:
                  if t_s - last_t > self.params.coast_s]
         for tid in stale:
             _, _, oid = self._tracks.pop(tid)
+            self._updates.pop(tid, None)
             if oid is not None and self.by_obstacle_id.get(oid) == tid:
                 del self.by_obstacle_id[oid]
         return stale

@@ -25,7 +25,7 @@ from companion.core.guidance import GuidanceCommand, GuidanceParams, guide_apf, 
 from companion.core.arc import Motion, VehicleLimits
 from companion.core.look_at import LookAtParams, threat_to_watch
 from companion.core.movers import (MoverParams, MoverTracker, apparent_velocity, mover_growth,
-                                   world_measurement)
+                                   mover_spread, world_measurement)
 from companion.core.union import UnionParams, guide_union
 
 # An observation frame stamped at most this much after the last odometry is processed at once
@@ -41,6 +41,8 @@ SAME_TIME_TOLERANCE_S = 1e-3
 LOOK_COURSE_MIN_SPEED_MPS = 0.5   # slower, the velocity's direction is noise: the last choice's
 NO_LOOK_MODES = ("arrived", "arrival_uncertain")
 MAX_PENDING_FRAMES = 8
+SPREAD_MIN_UPDATES = 5         # a track's position sigma widens its safety distance once this
+                               # many sightings confirm it (one second in view at 5 Hz)
 YOUNG_MIN_SPAN_S = 0.3         # a landmark on probation whose sightings span this long may be
                                # flown around as a mover (navigator._young_motion)
 
@@ -98,6 +100,7 @@ class Navigator:
         # landmark on probation already flown around as a mover (_young_motion)
         self.watching: int | tuple | None = None
         self._young_movers: list[tuple] = []  # (key, position, velocity) of those, this decision
+        self._young_spread: np.ndarray | None = None   # their extrapolation's sigma, m (by row)
         self._last_heading: float | None = None
         self._side = 0
         self.commitment = Commitment()  # the velocity choice's side, kept by progress
@@ -629,19 +632,34 @@ class Navigator:
                     and speed > self.mover_params.speed_sigmas * sigma:
                 found.append((row, velocity, sigma, float(np.mean(young.times))))
         self._young_movers = []
+        self._young_spread = None
         if not found:
             return obstacles, velocities, growth
         n = len(obstacles)
         obstacles = np.array(obstacles, dtype=float)
         velocities = np.zeros((n, 2)) if velocities is None else velocities.copy()
         growth = np.zeros(n) if growth is None else growth.copy()
+        self._young_spread = np.zeros(n)
         for row, velocity, sigma, mean_t in found:
             # the landmark's static estimate sits near its sightings' mean: move it on from there
             obstacles[row] = obstacles[row] + velocity * (self.clock_s - mean_t)
             velocities[row] = velocity
             growth[row] = self.union.mover_sigmas * sigma
+            # ... and that extrapolation is as uncertain as the velocity times its age
+            self._young_spread[row] = self.union.mover_sigmas * sigma * (self.clock_s - mean_t)
             self._young_movers.append((self._guidance_keys[row], obstacles[row].copy(), velocity))
         return obstacles, velocities, growth
+
+    def _spread(self, movers: list, rows: int, motion: Motion | None) -> np.ndarray | None:
+        """(rows,) how far each obstacle may be from its estimate now, for the velocity choice
+        (None: nowhere): confirmed tracks' position sigma (movers.mover_spread) and the
+        extrapolation of the landmarks on probation flown round as movers (_young_motion)."""
+        if motion is None:
+            return None
+        spread = mover_spread(movers, rows, self.union.mover_sigmas, SPREAD_MIN_UPDATES)
+        if self._young_spread is None:
+            return spread
+        return self._young_spread if spread is None else spread + self._young_spread
 
     def assess(self) -> Consistency:
         """The consistency monitor's verdict now; state changes are kept in ``health_changes``."""
@@ -719,7 +737,7 @@ class Navigator:
             command = guide_union(pose, self.goal, obstacles, rel_covs, self.params, self.union,
                                   self._last_heading, self.commitment.side if motion is not None
                                   else self._side, velocities, motion, growth, reach or None,
-                                  self.seen)
+                                  self.seen, self._spread(movers, len(obstacles), motion))
             self._side = command.side
             if motion is not None and command.mode != "arrived":
                 self.commitment = self.commitment.after(command.side, goal_distance)
