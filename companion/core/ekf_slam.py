@@ -28,6 +28,7 @@ from typing import Iterable, NamedTuple, Sequence
 
 import numpy as np
 from scipy.linalg.blas import dgemm
+from scipy.linalg.lapack import dposv
 
 from companion.core.geometry import place_jacobians, wrap_angle, wrap_angles
 
@@ -141,6 +142,36 @@ def _joseph_coef2(s00, s01, s11, i00, i01, i11, v0, v1) -> np.ndarray:
     return np.array(((i00, i01), (i01, i11), (1.0 - 0.5 * m00, -0.5 * m01),
                      (-0.5 * m10, 1.0 - 0.5 * m11), (i00, i01), (i01, i11),
                      (i00 * v0 + i01 * v1, i01 * v0 + i11 * v1)))
+
+
+_FRAME_LAYOUTS: dict[int, tuple] = {}
+_IDENTITIES: dict[int, np.ndarray] = {}
+
+
+def _frame_jacobian_layout(k_obs: int) -> tuple[np.ndarray, np.ndarray, int]:
+    """Where each observation's 2x2 landmark block sits in a frame's dense H (2K, 3+2K): row
+    and column indices in the order of the (K, 2, 2) blocks flattened, and the width."""
+    layout = _FRAME_LAYOUTS.get(k_obs)
+    if layout is None:
+        k, i, j = np.meshgrid(np.arange(k_obs), np.arange(2), np.arange(2), indexing="ij")
+        layout = ((2 * k + i).ravel(), (POSE_DIM + 2 * k + j).ravel(),
+                  POSE_DIM + LANDMARK_DIM * k_obs)
+        for index in layout[:2]:
+            index.flags.writeable = False
+        _FRAME_LAYOUTS[k_obs] = layout
+    return layout
+
+
+def _spd_inverse(s: np.ndarray) -> np.ndarray:
+    """S^-1 of a symmetric positive definite S by Cholesky (LAPACK dposv on the identity: one
+    call, where numpy.linalg.inv's checks and LU cost several times more for a frame's S);
+    numpy.linalg.inv if S is not positive definite to rounding."""
+    identity = _IDENTITIES.get(len(s))
+    if identity is None:
+        identity = _IDENTITIES.setdefault(len(s), np.eye(len(s)))
+        identity.flags.writeable = False
+    _, inverse, info = dposv(s, identity)
+    return inverse if info == 0 else np.linalg.inv(s)
 
 
 class EkfSlam:
@@ -423,39 +454,45 @@ class EkfSlam:
     def _correct_batch(self, z: np.ndarray, indices: np.ndarray) -> list[tuple]:
         """Joint Joseph update of the landmarks ``indices`` (K,) measured as ``z`` (K, 2).
 
-        H is (2K, 3+2K) on the pose and the K landmarks' columns; H P (2K, N) is one gather of
-        their rows and one product; S (2K, 2K). Returns (action, innovation, NIS) per observation.
+        H is (2K, 3+2K) on the pose and the K landmarks' columns, but each row touches five
+        states only, so H P (2K, N) is taken sparse: the pose's three rows of P times H's pose
+        block plus each landmark's two rows times its own 2x2 block (10 K N products instead
+        of the dense (2K)(3+2K) N). S (2K, 2K) from those columns of H P. S^-1 by a Cholesky
+        solve (S is symmetric positive definite). Returns (action, innovation, NIS) per
+        observation.
         """
-        # Per observation in scalars (K is a camera frame's few observations): a few dozen
-        # numpy calls on (K, 2) arrays cost more than the arithmetic.
-        mean, k_obs = self._mean_buf, len(indices)
-        width = POSE_DIM + LANDMARK_DIM * k_obs
-        lm_cols = [POSE_DIM + LANDMARK_DIM * i + j for i in indices.tolist() for j in (0, 1)]
-        north, east, yaw = mean[:3].tolist()
-        landmarks = mean.take(lm_cols).tolist()
-        jac_rows, innovation = [], []
-        for k, (z_range, z_bearing) in enumerate(z.tolist()):
-            d_north, d_east = landmarks[2 * k] - north, landmarks[2 * k + 1] - east
-            range_sq = d_north * d_north + d_east * d_east
-            range_m = math.sqrt(range_sq)
-            innovation.append((z_range - range_m,
-                               wrap_angle(z_bearing - (math.atan2(d_east, d_north) - yaw))))
-            a, b = d_north / range_m, d_east / range_m
-            c, e = d_east / range_sq, d_north / range_sq
-            m = POSE_DIM + LANDMARK_DIM * k
-            row_r, row_b = [0.0] * width, [0.0] * width
-            row_r[0], row_r[1], row_r[m], row_r[m + 1] = -a, -b, a, b
-            row_b[0], row_b[1], row_b[2], row_b[m], row_b[m + 1] = c, -e, -1.0, -c, e
-            jac_rows += (row_r, row_b)
-        jac = np.array(jac_rows)                                   # H on (pose, landmarks), (2K, 3+2K)
-        innovation = np.array(innovation)                          # (K, 2)
-        cols = np.array([0, 1, 2] + lm_cols)
-        hp = jac.dot(self._cov_buf.take(cols, axis=0))             # H P, (2K, N)
+        mean, cov, k_obs = self._mean_buf, self._cov_buf, len(indices)
+        dense_rows, dense_cols, width = _frame_jacobian_layout(k_obs)
+        cols = np.empty(width, dtype=np.intp)                       # the states H touches
+        cols[:POSE_DIM] = (0, 1, 2)
+        cols[POSE_DIM::2] = POSE_DIM + LANDMARK_DIM * indices
+        cols[POSE_DIM + 1::2] = cols[POSE_DIM::2] + 1
+        delta = mean.take(cols[POSE_DIM:]).reshape(k_obs, 2) - mean[:2]   # (K, 2): dn, de
+        d_north, d_east = delta[:, 0], delta[:, 1]
+        range_sq = d_north * d_north + d_east * d_east
+        range_m = np.sqrt(range_sq)
+        innovation = np.empty((k_obs, 2))
+        innovation[:, 0] = z[:, 0] - range_m
+        innovation[:, 1] = wrap_angles(z[:, 1] - (np.arctan2(d_east, d_north) - mean[2]))
+        # H's blocks per observation: landmark [[a, b], [-c, e]], pose [[-a, -b, 0], [c, -e, -1]]
+        # with a = dn/r, b = de/r, c = de/r^2, e = dn/r^2
+        jac_lm = np.empty((k_obs, 2, 2))
+        jac_lm[:, 0, :] = delta / range_m[:, None]
+        jac_lm[:, 1, 0] = -d_east / range_sq
+        jac_lm[:, 1, 1] = d_north / range_sq
+        jac = np.zeros((2 * k_obs, width))                          # H on (pose, landmarks)
+        jac[dense_rows, dense_cols] = jac_lm.ravel()
+        jac[:, :2] = -jac_lm.reshape(2 * k_obs, 2)
+        jac[1::2, 2] = -1.0
+        p_rows = cov.take(cols, axis=0)                             # the rows of P H touches
+        hp = np.matmul(jac_lm, p_rows[POSE_DIM:].reshape(k_obs, 2, -1)).reshape(2 * k_obs, -1)
+        hp += jac[:, :POSE_DIM].dot(p_rows[:POSE_DIM])              # H P, (2K, N)
         s = hp.take(cols, axis=1).dot(jac.T)
         s += s.T
         s *= 0.5
         s += self._block_meas_cov(k_obs)
-        diag, off = s.diagonal(), s.diagonal(1)[::2]               # each observation's own 2x2
+        # each observation gated alone, on its own 2x2 block of S
+        diag, off = s.diagonal(), s.diagonal(1)[::2]
         s00, s11 = diag[0::2], diag[1::2]
         v_r, v_b = innovation[:, 0], innovation[:, 1]
         nis = (s11 * v_r * v_r - 2.0 * off * v_r * v_b + s00 * v_b * v_b) / (s00 * s11 - off * off)
@@ -468,7 +505,7 @@ class EkfSlam:
             keep = np.repeat(ok, 2)
             hp, s, innovation = hp[keep], s[np.ix_(keep, keep)], innovation[ok]
         # one rank-2K Joseph correction, the same single dgemm pass as one observation's
-        self._joseph_rows(hp, s, np.linalg.inv(s), innovation.ravel())
+        self._joseph_rows(hp, s, _spd_inverse(s), innovation.ravel())
         return out
 
     def _block_meas_cov(self, k_obs: int) -> np.ndarray:

@@ -108,3 +108,11 @@ def test_unknown_ids_are_added_and_bad_frames_refused():
         slam.update_batch([Observation(10.0, 0.1, None)])
     with pytest.raises(ValueError, match="one landmark"):
         slam.update_batch([obs[0], obs[0]])
+
+
+def test_the_frame_inverse_is_the_inverse_for_definite_and_indefinite_s():
+    from companion.core.ekf_slam import _spd_inverse
+    rng = np.random.default_rng(3)
+    a = rng.normal(size=(6, 6))
+    for s in (a @ a.T + 6.0 * np.eye(6), a + a.T):       # positive definite, then indefinite
+        assert np.allclose(_spd_inverse(s) @ s, np.eye(6), atol=1e-9)
