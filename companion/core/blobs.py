@@ -61,6 +61,16 @@ class BlobParams:
 
 
 @dataclass(frozen=True)
+class SurfacePoint(Observation):
+    """A chain point between a long blob's anchors: a sample of a wall's or a face's surface that
+    stands for ``stretch_m`` of it (its R, ``meas_cov``, carries that spread); ``own_cov`` is the
+    R of the point itself, its bin's. The navigator asks which landmark covers it
+    (core/surface_cover.py), not which one it gates on."""
+    stretch_m: float = 0.0
+    own_cov: tuple | None = None
+
+
+@dataclass(frozen=True)
 class Blob:
     """Bins ``first`` to ``last`` inclusive."""
     first: int
@@ -243,13 +253,16 @@ def _chain(ranges_m: np.ndarray, bearings_rad: np.ndarray, increment_rad: float,
     out = []
     for i in picked:
         r = float(ranges_m[i])
+        own_r = params.range_sigma_m ** 2 + bin_var * r * r
+        own_b = params.bearing_sigma_rad ** 2 + bin_var
         if i in fixed:
-            var_r = params.range_sigma_m ** 2 + bin_var * r * r
-            var_b = params.bearing_sigma_rad ** 2 + bin_var
-        else:
-            var_r = params.range_sigma_m ** 2 + spread
-            var_b = params.bearing_sigma_rad ** 2 + spread / (r * r) + bin_var
-        out.append(Observation(r, float(bearings_rad[i]), None, ((var_r, 0.0), (0.0, var_b))))
+            out.append(Observation(r, float(bearings_rad[i]), None, ((own_r, 0.0), (0.0, own_b))))
+            continue
+        var_r = params.range_sigma_m ** 2 + spread
+        var_b = params.bearing_sigma_rad ** 2 + spread / (r * r) + bin_var
+        out.append(SurfacePoint(r, float(bearings_rad[i]), None, ((var_r, 0.0), (0.0, var_b)),
+                                stretch_m=params.chain_spacing_m,
+                                own_cov=((own_r, 0.0), (0.0, own_b))))
     return out
 
 

@@ -12,6 +12,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from companion.core.association import associate_frame
+from companion.core.blobs import SurfacePoint
 from companion.core.commitment import Commitment
 from companion.core.seen_space import SeenSpace
 from companion.core.consistency import Consistency, ConsistencyMonitor
@@ -21,6 +22,7 @@ from companion.core.geometry import move, move_velocity, place, wrap_angle
 from companion.core.lifecycle import Lifecycle, expected_visible
 from companion.core.motion_evidence import is_straight_track
 from companion.core.range_noise import with_range_model
+from companion.core.surface_cover import covering_nis
 from companion.core.guidance import GuidanceCommand, GuidanceParams, guide_apf, guide_cone
 from companion.core.arc import Motion, VehicleLimits
 from companion.core.look_at import LookAtParams, threat_to_watch
@@ -415,6 +417,8 @@ class Navigator:
                 self.monitor.add(self.clock_s, report.nis, 2)
             self._note_young(key, obs, report.action)
             return report
+        if isinstance(obs, SurfacePoint):
+            return self._observe_surface(obs, z)
         moved = self._moved_young(place(self._dr_pose, z))
         if moved is not None:
             self._relocate(moved, z, obs, used)
@@ -446,6 +450,30 @@ class Navigator:
             slam.set_landmark_id(report.landmark_index, key)
             self._born(key)
             self._note_young(key, obs, "added")
+        return report
+
+    def _observe_surface(self, obs: SurfacePoint, z: np.ndarray) -> UpdateReport:
+        """A wall's or a face's chain point the frame's association did not pair: surface the map
+        does not hold yet if no landmark covers it (core/surface_cover.py), else ambiguous (near
+        the landmark that covers it best). Never a young landmark 'moved' there (a wall does not
+        move; its chain points fall elsewhere along it every frame) and never a mover's."""
+        slam = self.slam
+        ids = slam.landmark_ids()
+        if ids:
+            pose = slam.pose
+            nis = covering_nis(slam.landmarks() - pose[:2], slam.relative_covs(), z,
+                               np.asarray(obs.own_cov, dtype=float), float(pose[2]),
+                               float(slam.pose_cov[2, 2]), 0.5 * obs.stretch_m)
+            best = int(np.argmin(nis))
+            if nis[best] <= slam.gates.accept_nis:
+                self._frame_near.add(ids[best])
+                return UpdateReport("ambiguous", best, None, float(nis[best]), None)
+        report = slam.add_landmark(z, None, obs.meas_cov_array())
+        key = self._next_anonymous_id
+        self._next_anonymous_id -= 1
+        slam.set_landmark_id(report.landmark_index, key)
+        self._born(key)
+        self._note_young(key, obs, "added")
         return report
 
     def _note_young(self, key: int, obs: Observation, action: str) -> None:
