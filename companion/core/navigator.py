@@ -461,7 +461,7 @@ class Navigator:
         ids = slam.landmark_ids()
         if ids:
             pose = slam.pose
-            nis = covering_nis(slam.landmarks() - pose[:2], slam.relative_covs(), z,
+            nis = covering_nis(slam.landmarks() - pose[:2], np.zeros((len(ids), 2, 2)), z,
                                np.asarray(obs.own_cov, dtype=float), float(pose[2]),
                                float(slam.pose_cov[2, 2]), 0.5 * obs.stretch_m)
             best = int(np.argmin(nis))
