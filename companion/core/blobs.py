@@ -255,14 +255,16 @@ def _chain(ranges_m: np.ndarray, bearings_rad: np.ndarray, increment_rad: float,
         r = float(ranges_m[i])
         own_r = params.range_sigma_m ** 2 + bin_var * r * r
         own_b = params.bearing_sigma_rad ** 2 + bin_var
+        own = ((own_r, 0.0), (0.0, own_b))
         if i in fixed:
-            out.append(Observation(r, float(bearings_rad[i]), None, ((own_r, 0.0), (0.0, own_b))))
+            out.append(SurfacePoint(r, float(bearings_rad[i]), None, own, stretch_m=0.0,
+                                    own_cov=own))
             continue
         var_r = params.range_sigma_m ** 2 + spread
         var_b = params.bearing_sigma_rad ** 2 + spread / (r * r) + bin_var
         out.append(SurfacePoint(r, float(bearings_rad[i]), None, ((var_r, 0.0), (0.0, var_b)),
                                 stretch_m=params.chain_spacing_m,
-                                own_cov=((own_r, 0.0), (0.0, own_b))))
+                                own_cov=own))
     return out
 
 

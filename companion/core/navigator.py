@@ -409,6 +409,8 @@ class Navigator:
         z = np.array([obs.range_m, obs.bearing_rad])
         action, key = plan if plan is not None else ("new", None)
         ids = slam.landmark_ids()
+        if isinstance(obs, SurfacePoint):
+            return self._observe_surface(obs, z, key if action == "update" else None)
         if action == "update" and key in ids:
             index = ids.index(key)
             report = slam.update_landmark(z, index, landmark_only=self._schmidt(key),
@@ -417,8 +419,6 @@ class Navigator:
                 self.monitor.add(self.clock_s, report.nis, 2)
             self._note_young(key, obs, report.action)
             return report
-        if isinstance(obs, SurfacePoint):
-            return self._observe_surface(obs, z)
         moved = self._moved_young(place(self._dr_pose, z))
         if moved is not None:
             self._relocate(moved, z, obs, used)
@@ -452,20 +452,32 @@ class Navigator:
             self._note_young(key, obs, "added")
         return report
 
-    def _observe_surface(self, obs: SurfacePoint, z: np.ndarray) -> UpdateReport:
-        """A wall's or a face's chain point the frame's association did not pair: surface the map
-        does not hold yet if no landmark covers it (core/surface_cover.py), else ambiguous (near
-        the landmark that covers it best). Never a young landmark 'moved' there (a wall does not
-        move; its chain points fall elsewhere along it every frame) and never a mover's."""
+    def _observe_surface(self, obs: SurfacePoint, z: np.ndarray, paired: int | None) -> UpdateReport:
+        """A wall's or a face's chain point: it updates the landmark the frame's association
+        paired it with (``paired``, a key) if that landmark covers it (core/surface_cover.py);
+        else it is ambiguous if another one covers it, and surface the map does not hold yet (a
+        new landmark) if none does. Never a young landmark 'moved' there (a wall does not move;
+        its chain points fall elsewhere along it every frame) and never a mover's."""
         slam = self.slam
         ids = slam.landmark_ids()
         if ids:
             pose = slam.pose
+            # the landmark as guidance uses it, its mean: what its safety circle reaches
             nis = covering_nis(slam.landmarks() - pose[:2], np.zeros((len(ids), 2, 2)), z,
                                np.asarray(obs.own_cov, dtype=float), float(pose[2]),
                                float(slam.pose_cov[2, 2]), 0.5 * obs.stretch_m)
-            best = int(np.argmin(nis))
-            if nis[best] <= slam.gates.accept_nis:
+            covers = nis <= slam.gates.accept_nis
+            if paired in ids and covers[ids.index(paired)]:
+                index = ids.index(paired)
+                young = self._schmidt(paired)
+                report = slam.update_landmark(z, index, landmark_only=young,
+                                              meas_cov=obs.meas_cov_array())
+                if not young:
+                    self.monitor.add(self.clock_s, report.nis, 2)
+                self._note_young(paired, obs, report.action)
+                return report
+            if covers.any():
+                best = int(np.argmin(nis))
                 self._frame_near.add(ids[best])
                 return UpdateReport("ambiguous", best, None, float(nis[best]), None)
         report = slam.add_landmark(z, None, obs.meas_cov_array())
