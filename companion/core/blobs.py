@@ -116,7 +116,11 @@ def blob_observations(ranges_m: np.ndarray, bearings_rad: np.ndarray, increment_
         rng, brg = ranges_m[span], bearings_rad[span]
         surface = float(rng.min())
         half = 0.5 * blob.bins * increment_rad
-        if 2.0 * surface * math.sin(half) <= params.compact_width_m and half < 0.5 * math.pi:
+        # compact: narrow, and no deeper than the widest post's radius (a circle's visible
+        # surface lies within R of its nearest point; a face seen at a grazing angle is narrow
+        # in angle but metres deep: a chain, whose real end gets its own point)
+        if 2.0 * surface * math.sin(half) <= params.compact_width_m and half < 0.5 * math.pi \
+                and float(rng.max()) - surface <= 0.5 * params.compact_width_m:
             cut = not (_real_end(ranges_m, blob.first, -1) and _real_end(ranges_m, blob.last, 1))
             # A circle fit needs only points on the circle, cut or not; the width does not: a
             # blob cut by the view's edge or a nearer thing has a width (and so a centre) that
