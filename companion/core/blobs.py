@@ -1,11 +1,15 @@
 """A depth camera's sectors (nearest surface per bin) as landmark observations.
 
 Neighbouring bins that hold a surface, with no jump in range larger than ``max_jump_m`` between
-them, form a blob. A blob narrower than ``compact_width_m`` is one obstacle: its centre lies
+them, form a blob. A blob narrower than ``compact_width_m`` and no deeper than half of it (a
+circle's visible surface lies within its radius of its nearest point; a face seen at a grazing
+angle is narrow in angle but metres deep) is one obstacle: its centre lies
 behind the nearest surface by the radius its angular width implies (a circle of radius R seen from
 r_s + R subtends 2 asin(R / (r_s + R)), so R = r_s sin(a) / (1 - sin(a)) for half width a). A
 wider blob is a wall, a fence, a building's face: a chain of surface points no further apart than
-``chain_spacing_m`` (under the safety distance, so the cones overlap and the wall blocks).
+``chain_spacing_m`` (under the safety distance, so the cones overlap and the wall blocks), each
+a ``SurfacePoint`` that says what stretch of surface it stands for (the navigator asks which
+landmark covers it, core/surface_cover.py, rather than which one it gates on).
 
 R comes from the bin geometry. Each edge of a blob lies somewhere inside its edge bin (uniform:
 increment^2 / 12 each), so a compact blob's centre bearing has variance increment^2 / 24 and its

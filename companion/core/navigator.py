@@ -462,10 +462,8 @@ class Navigator:
         ids = slam.landmark_ids()
         if ids:
             pose = slam.pose
-            # the landmark as guidance uses it, its mean: what its safety circle reaches
-            nis = covering_nis(slam.landmarks() - pose[:2], np.zeros((len(ids), 2, 2)), z,
-                               np.asarray(obs.own_cov, dtype=float), float(pose[2]),
-                               float(slam.pose_cov[2, 2]), 0.5 * obs.stretch_m)
+            nis = covering_nis(slam.landmarks() - pose[:2], z, np.asarray(obs.own_cov, dtype=float),
+                               float(pose[2]), float(slam.pose_cov[2, 2]), 0.5 * obs.stretch_m)
             covers = nis <= slam.gates.accept_nis
             if paired in ids and covers[ids.index(paired)]:
                 index = ids.index(paired)

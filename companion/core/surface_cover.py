@@ -9,12 +9,16 @@ the map keeps one landmark per 12-16 m of wall, whose safety circles leave the s
 them as close as 8 m (urban worlds: the vehicle passing a face 6-9 m away, abeam, after it left
 the view).
 
-The question for such a point is whether a landmark covers it: whether the point lies within half
-a stretch of the landmark, up to the noise of where both are seen. The offset between them,
-vehicle-relative (the pose's position cancels; the landmark's relative covariance holds what the
-filter correlates), is shortened by half the stretch before it is scored against the point's own
-R (the bin's, without the spread), the yaw's share at the point's range and the landmark's
-relative covariance. A point no landmark covers is surface the map does not hold: a new landmark.
+The question for such a point is whether a landmark covers it: whether it lies within half a
+stretch of a landmark's mean (where guidance puts the landmark's safety circle), up to the noise
+of where the point itself is seen: the offset, vehicle-relative, shortened by half the stretch,
+scored against the point's own R (its bin's, without the spread) and the yaw's share at its
+range. The landmark's own covariance is left out: a landmark made of chain points is uncertain
+along the wall by the stretch itself, and counting that again would let one landmark cover twice
+its stretch. A point no landmark covers is surface the map does not hold: a new landmark. A
+point the frame's association paired with a landmark that does not cover it is new surface too,
+not a reason to drag that landmark metres along the wall. An end or a corner (stretch 0) is
+covered only by a landmark where it is.
 """
 from __future__ import annotations
 
@@ -23,12 +27,11 @@ import math
 import numpy as np
 
 
-def covering_nis(relative_ne_m: np.ndarray, relative_covs: np.ndarray, z: np.ndarray,
-                 own_cov: np.ndarray, yaw_rad: float, yaw_var: float,
-                 half_stretch_m: float) -> np.ndarray:
-    """NIS (n,) of a surface point z = [range_m, bearing_rad] (R ``own_cov``, 2x2) against each
-    landmark at ``relative_ne_m`` (n, 2) from the vehicle with covariance ``relative_covs``
-    (n, 2, 2), the offset first shortened by ``half_stretch_m`` (zero inside it)."""
+def covering_nis(relative_ne_m: np.ndarray, z: np.ndarray, own_cov: np.ndarray, yaw_rad: float,
+                 yaw_var: float, half_stretch_m: float) -> np.ndarray:
+    """NIS (n,) of a surface point z = [range_m, bearing_rad] (R ``own_cov``, 2x2; the vehicle's
+    yaw ``yaw_rad`` with variance ``yaw_var``) against each landmark mean at ``relative_ne_m``
+    (n, 2) from the vehicle, the offset first shortened by ``half_stretch_m`` (zero inside it)."""
     direction = yaw_rad + float(z[1])
     c, s = math.cos(direction), math.sin(direction)
     r = float(z[0])
@@ -40,8 +43,6 @@ def covering_nis(relative_ne_m: np.ndarray, relative_covs: np.ndarray, z: np.nda
     length = np.hypot(offset[:, 0], offset[:, 1])
     scale = np.where(length > half_stretch_m, 1.0 - half_stretch_m / np.maximum(length, 1e-12), 0.0)
     offset = offset * scale[:, None]
-    cov = np.asarray(relative_covs, dtype=float).reshape(-1, 2, 2) + point_cov
-    a, b, d = cov[:, 0, 0], cov[:, 0, 1], cov[:, 1, 1]
-    det = a * d - b * b
+    (a, b), (_, d) = point_cov
     x, y = offset[:, 0], offset[:, 1]
-    return (d * x * x - 2.0 * b * x * y + a * y * y) / det
+    return (d * x * x - 2.0 * b * x * y + a * y * y) / (a * d - b * b)

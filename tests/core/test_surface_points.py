@@ -50,7 +50,7 @@ def test_a_point_within_half_a_stretch_of_a_landmark_is_covered_beyond_it_is_not
     z = np.array([20.0, 0.0])                     # straight ahead, at (20, 0)
     own = np.diag([0.01, math.radians(0.5) ** 2])
     landmarks = np.array([[20.0, 1.5], [20.0, 5.0]])
-    nis = covering_nis(landmarks, np.zeros((2, 2, 2)), z, own, 0.0, 0.0, 2.0)
+    nis = covering_nis(landmarks, z, own, 0.0, 0.0, 2.0)
     assert nis[0] == 0.0                          # 1.5 m along: inside the landmark's stretch
     sigma_across = 20.0 * math.radians(0.5)       # the bearing's share, across the ray
     assert nis[1] == pytest.approx((3.0 / sigma_across) ** 2)
