@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from companion.config import Goal, Point, StartPose, Wall, World, load_scenario
+from companion.config import Goal, Obstacle, Point, StartPose, Wall, World, load_scenario
 from companion.core.blobs import BlobParams, SurfacePoint, blob_observations
 from companion.core.surface_cover import covering_nis
 from companion.simulation import camera_frame, make_navigator
@@ -132,3 +132,27 @@ def test_a_chain_point_paired_with_a_landmark_it_lies_beyond_the_stretch_of_star
     # while a point inside the stretch updates it and adds nothing
     nav.observe([surface_point(nav, 45.0, 1.0, PARAMS.chain_spacing_m)])
     assert nav.slam.landmark_count == 2
+
+
+def test_a_stereo_cameras_post_is_fitted_with_each_bins_own_range_noise():
+    # sigma_r = 0.1 + 0.0015 r^2 (realistic.yaml's D455): 0.6 m a bin at 18 m. A fit that took
+    # the floor's 0.1 m for every bin would claim a centre 6 times too well known.
+    north, east, radius = 18.0, -2.0, 2.5
+    base = load_scenario("config/scenarios/paper-anonymous.yaml")
+    sensor = dataclasses.replace(base.sensor, range_sigma_m=0.1, range_sigma_k_per_m=0.0015,
+                                 form="sectors", sector_count=144)
+    world = World(StartPose(0.0, 0.0, 0.0), Goal(500.0, 0.0), (Obstacle(1, north, east, radius),))
+    truth = TruthWorld(dataclasses.replace(base, world=world, sensor=sensor),
+                       np.random.default_rng(5))
+    params = BlobParams(range_sigma_m=0.1, range_sigma_k_per_m=0.0015)
+    errors = []
+    for _ in range(300):
+        obs = blob_observations(*truth.observe_sectors(), params)
+        if len(obs) != 1 or isinstance(obs[0], SurfacePoint):
+            continue
+        (o,) = obs
+        e = np.array([o.range_m - math.hypot(north, east),
+                      o.bearing_rad - math.atan2(east, north)])
+        errors.append(float(e @ np.linalg.solve(np.array(o.meas_cov), e)))
+    assert len(errors) >= 100                          # fitted (not refused, not split)
+    assert 0.5 < np.mean(errors) < 3.5                 # honest: about 2 for 2 dof
