@@ -38,7 +38,7 @@ import numpy as np
 from companion import odometry_intake
 from companion.adapters import codec
 from companion.config import CompanionConfig, GoalConfig
-from companion.core.blobs import sector_observations
+from companion.core.blobs import BlobParams, sector_observations
 from companion.core.geometry import wrap_angle
 from companion.core.guidance import shape_setpoint
 from companion.core.navigator import Navigator
@@ -587,7 +587,8 @@ class Pipeline:
             if not observations:
                 return
         if frame.sectors is not None:        # a depth camera: its blobs, not a landmark per bin
-            observations = sector_observations(frame.sectors)
+            observations = sector_observations(frame.sectors, BlobParams(
+                range_sigma_k_per_m=self.navigator.options.range_sigma_k_per_m))
         # Held until a message that is not part of this frame arrives (handle() flushes it): an
         # empty frame too, a chance in which the landmarks in view were not seen.
         if self._frame is None:

@@ -152,7 +152,8 @@ def run_once(scenario: Scenario, seed: int, strategy: str | None = None) -> RunO
                         first.yaw_rate_rad_s)
     shaped = None                      # the last setpoint (copter): velocity and nose
     blobs = BlobParams(range_sigma_m=scenario.sensor.range_sigma_m,
-                       bearing_sigma_rad=scenario.sensor.bearing_sigma_rad)
+                       bearing_sigma_rad=scenario.sensor.bearing_sigma_rad,
+                       range_sigma_k_per_m=scenario.estimator_config().range_sigma_k_per_m)
     nav.observe(camera_frame(truth, blobs))
     for step in range(1, max_steps + 1):
         command, change = nav.decide(truth.t_s)

@@ -1,11 +1,15 @@
 """A depth camera's sectors (nearest surface per bin) as landmark observations.
 
 Neighbouring bins that hold a surface, with no jump in range larger than ``max_jump_m`` between
-them, form a blob. A blob narrower than ``compact_width_m`` is one obstacle: its centre lies
+them, form a blob. A blob narrower than ``compact_width_m`` and no deeper than half of it (a
+circle's visible surface lies within its radius of its nearest point; a face seen at a grazing
+angle is narrow in angle but metres deep) is one obstacle: its centre lies
 behind the nearest surface by the radius its angular width implies (a circle of radius R seen from
 r_s + R subtends 2 asin(R / (r_s + R)), so R = r_s sin(a) / (1 - sin(a)) for half width a). A
 wider blob is a wall, a fence, a building's face: a chain of surface points no further apart than
-``chain_spacing_m`` (under the safety distance, so the cones overlap and the wall blocks).
+``chain_spacing_m`` (under the safety distance, so the cones overlap and the wall blocks), each
+a ``SurfacePoint`` that says what stretch of surface it stands for (the navigator asks which
+landmark covers it, core/surface_cover.py, rather than which one it gates on).
 
 R comes from the bin geometry. Each edge of a blob lies somewhere inside its edge bin (uniform:
 increment^2 / 12 each), so a compact blob's centre bearing has variance increment^2 / 24 and its
@@ -42,8 +46,9 @@ from companion.core.ekf_slam import Observation
 
 @dataclass(frozen=True)
 class BlobParams:
-    range_sigma_m: float = 0.1            # the sensor's noise per bin
+    range_sigma_m: float = 0.1            # the sensor's noise per bin (at zero range) ...
     bearing_sigma_rad: float = 0.0
+    range_sigma_k_per_m: float = 0.0      # ... growing as k r^2 (stereo, core/range_noise.py)
     max_jump_m: float = 2.0               # a larger range step between neighbours splits a blob
     compact_width_m: float = 6.0          # the widest post (3 m radius in the random worlds)
     chain_spacing_m: float = 4.0          # a choice: 10 m from two neighbours is sqrt(10^2 - 2^2)
@@ -58,6 +63,20 @@ class BlobParams:
     def __post_init__(self) -> None:
         if self.chain_spacing_m <= 0 or self.compact_width_m <= 0 or self.max_jump_m <= 0:
             raise ValueError("blob parameters must be > 0")
+
+    def range_var(self, range_m):
+        """A bin's range variance at ``range_m`` (floor + k r^2, squared)."""
+        return (self.range_sigma_m + self.range_sigma_k_per_m * np.square(range_m)) ** 2
+
+
+@dataclass(frozen=True)
+class SurfacePoint(Observation):
+    """A chain point between a long blob's anchors: a sample of a wall's or a face's surface that
+    stands for ``stretch_m`` of it (its R, ``meas_cov``, carries that spread); ``own_cov`` is the
+    R of the point itself, its bin's. The navigator asks which landmark covers it
+    (core/surface_cover.py), not which one it gates on."""
+    stretch_m: float = 0.0
+    own_cov: tuple | None = None
 
 
 @dataclass(frozen=True)
@@ -106,7 +125,11 @@ def blob_observations(ranges_m: np.ndarray, bearings_rad: np.ndarray, increment_
         rng, brg = ranges_m[span], bearings_rad[span]
         surface = float(rng.min())
         half = 0.5 * blob.bins * increment_rad
-        if 2.0 * surface * math.sin(half) <= params.compact_width_m and half < 0.5 * math.pi:
+        # compact: narrow, and no deeper than the widest post's radius (a circle's visible
+        # surface lies within R of its nearest point; a face seen at a grazing angle is narrow
+        # in angle but metres deep: a chain, whose real end gets its own point)
+        if 2.0 * surface * math.sin(half) <= params.compact_width_m and half < 0.5 * math.pi \
+                and float(rng.max()) - surface <= 0.5 * params.compact_width_m:
             cut = not (_real_end(ranges_m, blob.first, -1) and _real_end(ranges_m, blob.last, 1))
             # A circle fit needs only points on the circle, cut or not; the width does not: a
             # blob cut by the view's edge or a nearer thing has a width (and so a centre) that
@@ -132,15 +155,17 @@ def _compact(surface_m: float, bearing_rad: float, half_rad: float, bins: int,
     radius = surface_m * sin_a / (1.0 - sin_a)
     d_radius = surface_m * math.cos(half_rad) / (1.0 - sin_a) ** 2     # dR / da
     edge_var = params.correlation_inflation * increment_rad ** 2 / 24.0   # var of a = width / 2 too
-    var_r = params.range_sigma_m ** 2 + d_radius ** 2 * edge_var
+    var_r = float(params.range_var(surface_m)) + d_radius ** 2 * edge_var
     var_b = edge_var + params.bearing_sigma_rad ** 2 / bins
     return Observation(surface_m + radius, bearing_rad, None, ((var_r, 0.0), (0.0, var_b)))
 
 
-def fit_circle(points: np.ndarray, iterations: int = 8) -> tuple[np.ndarray, float, np.ndarray]:
+def fit_circle(points: np.ndarray, iterations: int = 8,
+               weights: np.ndarray | None = None) -> tuple[np.ndarray, float, np.ndarray]:
     """Least-squares circle through surface points (k, 2), k >= 3: the Kasa (algebraic) fit,
     refined by Gauss-Newton on the distances to the circle. Returns (centre (2,), radius,
-    (J^T J)^-1 (3, 3) over [centre, radius], to be scaled by the points' variance)."""
+    (J^T J)^-1 (3, 3) over [centre, radius], to be scaled by the points' variance). ``weights``
+    (k,): each point's inverse variance; the covariance returned is then (J^T W J)^-1 itself."""
     a = np.column_stack((2.0 * points, np.ones(len(points))))
     sol = np.linalg.lstsq(a, np.sum(points * points, axis=1), rcond=None)[0]
     centre = sol[:2]
@@ -151,9 +176,15 @@ def fit_circle(points: np.ndarray, iterations: int = 8) -> tuple[np.ndarray, flo
         jac = np.column_stack((-d / dist[:, None], -np.ones(len(points))))
         if _ == iterations:
             break
-        step = np.linalg.lstsq(jac, radius - dist, rcond=None)[0]
+        if weights is None:
+            step = np.linalg.lstsq(jac, radius - dist, rcond=None)[0]
+        else:
+            root = np.sqrt(weights)
+            step = np.linalg.lstsq(jac * root[:, None], (radius - dist) * root, rcond=None)[0]
         centre, radius = centre + step[:2], radius + float(step[2])
-    return centre, radius, np.linalg.pinv(jac.T @ jac)
+    if weights is None:
+        return centre, radius, np.linalg.pinv(jac.T @ jac)
+    return centre, radius, np.linalg.pinv(jac.T @ (jac * weights[:, None]))
 
 
 def _fitted_circle(ranges_m: np.ndarray, bearings_rad: np.ndarray, surface_m: float,
@@ -164,8 +195,10 @@ def _fitted_circle(ranges_m: np.ndarray, bearings_rad: np.ndarray, surface_m: fl
     if len(ranges_m) < params.fit_min_bins or params.range_sigma_m <= 0.0:
         return None
     points = np.column_stack((ranges_m * np.cos(bearings_rad), ranges_m * np.sin(bearings_rad)))
+    # a stereo camera's bins are noisier the farther they are: each weighs by its own variance
+    weights = 1.0 / params.range_var(ranges_m) if params.range_sigma_k_per_m > 0.0 else None
     try:
-        centre, radius, inv = fit_circle(points)
+        centre, radius, inv = fit_circle(points, weights=weights)
     except np.linalg.LinAlgError:
         return None
     sin_a = math.sin(half_rad)
@@ -178,7 +211,8 @@ def _fitted_circle(ranges_m: np.ndarray, bearings_rad: np.ndarray, surface_m: fl
     if not (math.isfinite(radius) and 0.0 < radius <= bound
             and surface_m < r <= surface_m + 2.0 * radius + 0.5):
         return None
-    cov_xy = params.fit_inflation * params.range_sigma_m ** 2 * inv[:2, :2]
+    scale = params.range_sigma_m ** 2 if weights is None else 1.0
+    cov_xy = params.fit_inflation * scale * inv[:2, :2]
     jac = np.array([[centre[0] / r, centre[1] / r], [-centre[1] / r ** 2, centre[0] / r ** 2]])
     cov = jac @ cov_xy @ jac.T
     cov[1, 1] += params.bearing_sigma_rad ** 2 / len(ranges_m)
@@ -243,13 +277,18 @@ def _chain(ranges_m: np.ndarray, bearings_rad: np.ndarray, increment_rad: float,
     out = []
     for i in picked:
         r = float(ranges_m[i])
+        own_r = float(params.range_var(r)) + bin_var * r * r
+        own_b = params.bearing_sigma_rad ** 2 + bin_var
+        own = ((own_r, 0.0), (0.0, own_b))
         if i in fixed:
-            var_r = params.range_sigma_m ** 2 + bin_var * r * r
-            var_b = params.bearing_sigma_rad ** 2 + bin_var
-        else:
-            var_r = params.range_sigma_m ** 2 + spread
-            var_b = params.bearing_sigma_rad ** 2 + spread / (r * r) + bin_var
-        out.append(Observation(r, float(bearings_rad[i]), None, ((var_r, 0.0), (0.0, var_b))))
+            out.append(SurfacePoint(r, float(bearings_rad[i]), None, own, stretch_m=0.0,
+                                    own_cov=own))
+            continue
+        var_r = float(params.range_var(r)) + spread
+        var_b = params.bearing_sigma_rad ** 2 + spread / (r * r) + bin_var
+        out.append(SurfacePoint(r, float(bearings_rad[i]), None, ((var_r, 0.0), (0.0, var_b)),
+                                stretch_m=params.chain_spacing_m,
+                                own_cov=own))
     return out
 
 

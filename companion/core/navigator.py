@@ -12,6 +12,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from companion.core.association import associate_frame
+from companion.core.blobs import SurfacePoint
 from companion.core.commitment import Commitment
 from companion.core.seen_space import SeenSpace
 from companion.core.consistency import Consistency, ConsistencyMonitor
@@ -21,6 +22,7 @@ from companion.core.geometry import move, move_velocity, place, wrap_angle
 from companion.core.lifecycle import Lifecycle, expected_visible
 from companion.core.motion_evidence import is_straight_track
 from companion.core.range_noise import with_range_model
+from companion.core.surface_cover import covering_nis
 from companion.core.guidance import GuidanceCommand, GuidanceParams, guide_apf, guide_cone
 from companion.core.arc import Motion, VehicleLimits
 from companion.core.look_at import LookAtParams, threat_to_watch
@@ -410,6 +412,8 @@ class Navigator:
         z = np.array([obs.range_m, obs.bearing_rad])
         action, key = plan if plan is not None else ("new", None)
         ids = slam.landmark_ids()
+        if isinstance(obs, SurfacePoint):
+            return self._observe_surface(obs, z, key if action == "update" else None)
         if action == "update" and key in ids:
             index = ids.index(key)
             report = slam.update_landmark(z, index, landmark_only=self._schmidt(key),
@@ -449,6 +453,40 @@ class Navigator:
             slam.set_landmark_id(report.landmark_index, key)
             self._born(key)
             self._note_young(key, obs, "added")
+        return report
+
+    def _observe_surface(self, obs: SurfacePoint, z: np.ndarray, paired: int | None) -> UpdateReport:
+        """A wall's or a face's chain point: it updates the landmark the frame's association
+        paired it with (``paired``, a key) if that landmark covers it (core/surface_cover.py);
+        else it is ambiguous if another one covers it, and surface the map does not hold yet (a
+        new landmark) if none does. Never a young landmark 'moved' there (a wall does not move;
+        its chain points fall elsewhere along it every frame) and never a mover's."""
+        slam = self.slam
+        ids = slam.landmark_ids()
+        if ids:
+            pose = slam.pose
+            nis = covering_nis(slam.landmarks() - pose[:2], z, np.asarray(obs.own_cov, dtype=float),
+                               float(pose[2]), float(slam.pose_cov[2, 2]), 0.5 * obs.stretch_m)
+            covers = nis <= slam.gates.accept_nis
+            if paired in ids and covers[ids.index(paired)]:
+                index = ids.index(paired)
+                young = self._schmidt(paired)
+                report = slam.update_landmark(z, index, landmark_only=young,
+                                              meas_cov=obs.meas_cov_array())
+                if not young:
+                    self.monitor.add(self.clock_s, report.nis, 2)
+                self._note_young(paired, obs, report.action)
+                return report
+            if covers.any():
+                best = int(np.argmin(nis))
+                self._frame_near.add(ids[best])
+                return UpdateReport("ambiguous", best, None, float(nis[best]), None)
+        report = slam.add_landmark(z, None, obs.meas_cov_array())
+        key = self._next_anonymous_id
+        self._next_anonymous_id -= 1
+        slam.set_landmark_id(report.landmark_index, key)
+        self._born(key)
+        self._note_young(key, obs, "added")
         return report
 
     def _note_young(self, key: int, obs: Observation, action: str) -> None:
