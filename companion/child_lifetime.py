@@ -35,3 +35,10 @@ def die_with_parent_hook():
         return None
     parent_pid = os.getpid()
     return lambda: _die_with_parent(parent_pid)
+
+
+def die_with_parent_now() -> None:
+    """The same tie, asked for by the child itself once running (a Dask worker's preload: its
+    parent thread is the nanny's process-watch thread, which lives as long as the worker)."""
+    if _LIBC is not None:
+        _LIBC.prctl(PR_SET_PDEATHSIG, signal.SIGTERM)
