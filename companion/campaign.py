@@ -197,7 +197,8 @@ def open_client(workers: int | None = None, scheduler: str | None = None) -> Ite
     method = "fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn"
     with dask.config.set({"distributed.worker.multiprocessing-method": method}):
         with distributed.LocalCluster(n_workers=workers or local_cores(), threads_per_worker=1,
-                                      processes=True, dashboard_address=":0") as cluster:
+                                      processes=True, dashboard_address=":0",
+                                      preload=["companion.worker_lifetime"]) as cluster:
             with distributed.Client(cluster) as client:
                 yield client
 

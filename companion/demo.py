@@ -29,6 +29,7 @@ import yaml
 
 from companion.adapters import codec
 from companion.adapters.mavlink_link import open_link
+from companion.child_lifetime import die_with_parent_hook
 from companion.config import (CompanionConfig, GoalConfig, Scenario, config_to_dict, load_config,
                               read_signing_key)
 from companion.core import shapes
@@ -135,7 +136,8 @@ async def spawn(name: str, args: list[str], workdir: Path, stdout=None) -> Child
     stderr_path = workdir / f"{name}.stderr"
     with open(stderr_path, "wb") as err:
         proc = await asyncio.create_subprocess_exec(*args, stdout=stdout, stderr=err,
-                                                    stdin=asyncio.subprocess.DEVNULL)
+                                                    stdin=asyncio.subprocess.DEVNULL,
+                                                    preexec_fn=die_with_parent_hook())
     return Child(name, proc, stderr_path)
 
 

@@ -20,7 +20,7 @@ def check(report, success):
 
 
 def test_cluttered_dense_worlds_are_flown(tmp_path):
-    check(simulate(tmp_path, "--scenario", CLUTTERED, "--random-worlds", "dense", "--runs", "20"),
+    check(simulate(tmp_path, "--scenario", CLUTTERED, "--random-worlds", "dense", "--runs", "10"),
           success=0.95)
 
 

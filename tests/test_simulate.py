@@ -69,11 +69,13 @@ def test_bad_scenario_gives_exit_2_and_names_the_file(tmp_path, capsys):
 
 
 def test_dense_worlds_union_beats_the_paper_law(tmp_path):
-    union = simulate(tmp_path, "--random-worlds", "dense", "--runs", "25", "--seed", "300")
+    # 10 runs: the paper's law failed 4 of them (seeds 300, 303, 304, 309) and 13 of 25, the
+    # union none of 25 (measured on main, 2026-12-01)
+    union = simulate(tmp_path, "--random-worlds", "dense", "--runs", "10", "--seed", "300")
     assert union["aggregate"]["strategy"] == "union"        # the scenario file's default
     assert union["aggregate"]["collision_rate"] == 0.0
     assert union["aggregate"]["success_rate"] >= 0.95
-    paper = simulate(tmp_path, "--random-worlds", "dense", "--runs", "25", "--seed", "300",
+    paper = simulate(tmp_path, "--random-worlds", "dense", "--runs", "10", "--seed", "300",
                      "--strategy", "cone")
     assert paper["aggregate"]["success_rate"] < union["aggregate"]["success_rate"]
 
@@ -88,11 +90,13 @@ def test_random_worlds_acceptance(tmp_path, kind):
 
 def test_moving_worlds_are_flown_safely_and_the_pose_stays_consistent(tmp_path):
     # NEES band fraction over 20 runs is itself a statistic: for seed bases 0, 100, 200, 500 and
-    # 900 it measured 1.00, 0.94, 1.00, 0.82 and 0.98 (NEES mean 2.5 to 3.2). The test pins base 0.
-    report = simulate(tmp_path, "--random-worlds", "moving", "--runs", "20", "--seed", "0")
+    # 900 it measured 1.00, 0.94, 1.00, 0.82 and 0.98 (NEES mean 2.5 to 3.2). The test pins base 0,
+    # 10 runs for the default run's time (the 100-run acceptance is marked slow); one failure
+    # allowed, as 1 in 20 before (seed 13, 9.3 m from a mover, in both this and the next test).
+    report = simulate(tmp_path, "--random-worlds", "moving", "--runs", "10", "--seed", "0")
     agg = report["aggregate"]
     assert agg["collision_rate"] == 0.0
-    assert agg["success_rate"] >= 0.95
+    assert agg["success_rate"] >= 0.9
     assert agg["nees"]["in_band_fraction"] >= 0.9
 
 
@@ -106,17 +110,17 @@ def test_moving_worlds_acceptance(tmp_path):
 def test_moving_worlds_without_obstacle_ids(tmp_path):
     """A camera that gives no ids: movers are still found from the observation stream."""
     report = simulate(tmp_path, "--scenario", "config/scenarios/paper-anonymous.yaml",
-                      "--random-worlds", "moving", "--runs", "20", "--seed", "0")
+                      "--random-worlds", "moving", "--runs", "10", "--seed", "0")
     agg = report["aggregate"]
     assert agg["collision_rate"] == 0.0
-    assert agg["success_rate"] >= 0.95
+    assert agg["success_rate"] >= 0.9
 
 
 @pytest.mark.parametrize("fusion, p95_limit_m", [("on", 1.0), ("off", 2.0)])
 def test_multicopter_scenario_with_and_without_the_autopilot_position(tmp_path, fusion, p95_limit_m):
     """Issue 13: the paper's world flown by a multicopter, its autopilot's position fused or not
     (GPS-denied SLAM)."""
-    report = simulate(tmp_path, "--scenario", "config/scenarios/copter.yaml", "--runs", "20",
+    report = simulate(tmp_path, "--scenario", "config/scenarios/copter.yaml", "--runs", "10",
                       "--position-fusion", fusion)
     agg = report["aggregate"]
     assert agg["success_rate"] == 1.0 and agg["collision_rate"] == 0.0
@@ -124,7 +128,7 @@ def test_multicopter_scenario_with_and_without_the_autopilot_position(tmp_path, 
     assert agg["nees"]["in_band_fraction"] >= 0.85
     fixes = [run["position_fixes"]["fused"] for run in report["runs"]]
     assert (min(fixes) >= 30) if fusion == "on" else (max(fixes) == 0)
-    assert agg["arrivals"]["declared"] == 20 and agg["arrivals"]["max_true_goal_distance_m"] < 4.0
+    assert agg["arrivals"]["declared"] == 10 and agg["arrivals"]["max_true_goal_distance_m"] < 4.0
     for run in report["runs"]:
         assert len(run["landmark_errors_m"]) == 2 and max(run["landmark_errors_m"]) < 1.0
 

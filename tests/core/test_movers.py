@@ -153,7 +153,7 @@ def test_static_worlds_only_differ_by_the_probation_of_new_landmarks(monkeypatch
     """Mover handling costs static worlds little: the same successes, clearance within
     centimetres, the median final error within 0.2 m."""
     scenario = load_scenario("config/scenarios/paper.yaml")
-    with_probation = [run_once(scenario, seed).summary for seed in range(10)]
+    with_probation = [run_once(scenario, seed).summary for seed in range(6)]
     import companion.simulation as simulation
     original = simulation.Navigator
 
@@ -161,7 +161,7 @@ def test_static_worlds_only_differ_by_the_probation_of_new_landmarks(monkeypatch
         kwargs["mover_params"] = MoverParams(probation_s=-1.0, strikes_to_mover=10 ** 9)
         return original(*args, **kwargs)
     monkeypatch.setattr(simulation, "Navigator", without)
-    plain = [run_once(scenario, seed).summary for seed in range(10)]
+    plain = [run_once(scenario, seed).summary for seed in range(6)]
     for a, b in zip(with_probation, plain):
         assert a["reached_goal"] and b["reached_goal"]
         assert abs(a["min_clearance_m"] - b["min_clearance_m"]) < 0.2

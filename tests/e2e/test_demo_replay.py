@@ -21,12 +21,10 @@ def companion(*args, timeout_s=90.0):
 
 
 @pytest.fixture(scope="module")
-def demo(tmp_path_factory):
-    out = tmp_path_factory.mktemp("demo")
-    done = companion("demo", "--speedup", "20", "--json", str(out / "demo.json"),
-                     "--plot", str(out / "demo.png"), "--tlog", str(out / "demo.tlog"))
-    assert done.returncode == 0, done.stdout + done.stderr
-    return out, done
+def demo(paper_demo):
+    """The session's paper demo (tests/conftest.py): its outputs are demo.json, demo.png,
+    demo.tlog and demo.config.yaml in its work dir."""
+    return paper_demo.workdir, paper_demo.done
 
 
 def test_demo_reaches_the_goal_safely_and_writes_its_outputs(demo):

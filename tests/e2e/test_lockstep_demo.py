@@ -1,12 +1,14 @@
 """The seeded lock-step paper demo is one flight whatever the machine's load: flown twice, once
 beside two CPU-bound processes (as many as the machine has cores), its JSON (less the wall-clock
-figures), the vehicle's true path and the companion's estimated track are identical."""
+figures), the vehicle's true path and the companion's estimated track are identical. The quiet
+flight is the session's paper demo (tests/conftest.py), flown with the same arguments."""
 from __future__ import annotations
 
 import json
 import subprocess
 import sys
 
+from tests.conftest import PAPER_DEMO_ARGS
 from tests.e2e.test_demo_replay import companion
 
 WALL_CLOCK_KEYS = ("wall_time_s", "flight_sim_s", "flight_wall_s", "real_time_factor")
@@ -15,10 +17,13 @@ BUSY = f"import time\nend = time.monotonic() + {BUSY_S}\nwhile time.monotonic() 
 
 
 def fly(workdir):
-    done = companion("demo", "--seed", "0", "--json", str(workdir / "d.json"),
-                     "--keep", str(workdir))
+    done = companion(*PAPER_DEMO_ARGS, "--json", str(workdir / "demo.json"), "--keep", str(workdir))
     assert done.returncode == 0, done.stdout + done.stderr
-    result = json.loads((workdir / "d.json").read_text())
+    return flown(workdir)
+
+
+def flown(workdir):
+    result = json.loads((workdir / "demo.json").read_text())
     wall = {key: result["aggregate"].pop(key) for key in WALL_CLOCK_KEYS}
     arrival_t_s = result["runs"][0]["time_s"]
     truth = [line for line in (workdir / "truth.jsonl").read_text().splitlines()
@@ -30,8 +35,8 @@ def fly(workdir):
     return result, truth, track, wall, stub_log
 
 
-def test_the_lockstep_demo_is_the_same_flight_beside_two_busy_processes(tmp_path):
-    quiet = fly(tmp_path / "quiet")
+def test_the_lockstep_demo_is_the_same_flight_beside_two_busy_processes(tmp_path, paper_demo):
+    quiet = flown(paper_demo.workdir)
     busy = [subprocess.Popen([sys.executable, "-c", BUSY]) for _ in range(2)]
     try:
         loaded = fly(tmp_path / "loaded")

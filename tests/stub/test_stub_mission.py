@@ -102,6 +102,9 @@ def mavproxy_load(tcp_port: int, wpl: Path, cwd: Path) -> str:
         gcs.stdin.flush()
         return seen + read_until(gcs, ["Sent all"], timeout_s=30.0)
     finally:
+        # Its stdin closed first: MAVProxy at a prompt on a pipe ignores SIGTERM (the 10 s wait
+        # below ran out on every call, and the kill ended it)
+        gcs.stdin.close()
         gcs.terminate()
         try:
             gcs.wait(timeout=10)

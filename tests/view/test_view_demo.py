@@ -5,66 +5,26 @@ $VIEW_SCREENSHOT if set: that is how docs/view-demo.png was made)."""
 from __future__ import annotations
 
 import asyncio
-import json
 import math
 import os
-import select
-import subprocess
-import sys
-import time
-import urllib.request
 from pathlib import Path
 
 import pytest
 
-from tests.e2e.support import REPO, spawn, wait_until
+from tests.e2e.support import wait_until
 from tests.view.browser import CHROMIUM, open_page
+from tests.view.process import get_state, start_view
 
 PAPER_OBSTACLES = {1: (60.0, 5.0), 2: (120.0, 0.0)}
-READY_TIMEOUT_S = 20.0
-
-
-def start_view(tmp_path: Path, *args: str):
-    """`companion view ... --port 0`; returns (process, page URL, feed port or None)."""
-    view = spawn(tmp_path, "view", [sys.executable, "-m", "companion", "view", "--port", "0",
-                                    *args], stdout=subprocess.PIPE)
-    deadline = time.monotonic() + READY_TIMEOUT_S
-    while time.monotonic() < deadline:
-        ready, _, _ = select.select([view.proc.stdout], [], [], 0.2)
-        if ready:
-            line = view.proc.stdout.readline()
-            if line.startswith("COMPANION_VIEW READY"):
-                fields = dict(part.split("=", 1) for part in line.split()[2:])
-                source = fields["source"]
-                port = int(source.rpartition(":")[2]) if source.startswith("udp:") else None
-                return view, fields["http"], port
-        if view.proc.poll() is not None:
-            break
-    view.stop()
-    raise AssertionError(f"companion view not ready:\n{view.stderr()}")
-
-
-def get_state(url: str) -> dict:
-    with urllib.request.urlopen(url + "api/state", timeout=5) as r:
-        return json.loads(r.read())
 
 
 @pytest.fixture(scope="module")
-def flown(tmp_path_factory):
-    work = tmp_path_factory.mktemp("view-demo")
-    view, url, feed_port = start_view(work, "--source", "udp:127.0.0.1:0",
-                                      "--truth", str(work / "truth.jsonl"))
-    try:
-        done = subprocess.run(
-            [sys.executable, "-m", "companion", "demo", "--keep", str(work), "--view-feed",
-             f"127.0.0.1:{feed_port}", "--tlog", str(work / "demo.tlog")],
-            capture_output=True, text=True, cwd=REPO, timeout=120)
-        assert done.returncode == 0, done.stdout + done.stderr
-        state = wait_until(lambda: (s := get_state(url))["state"] and s["state"]["arrived"]
-                           and len(s["true_obstacles"]) == 2 and s, 10.0, "the arrival in the view")
-        yield work, url, state
-    finally:
-        view.stop()
+def flown(paper_demo):
+    """The session's paper demo (tests/conftest.py), fed live to a view: its state at arrival."""
+    url = paper_demo.view_url
+    state = wait_until(lambda: (s := get_state(url))["state"] and s["state"]["arrived"]
+                       and len(s["true_obstacles"]) == 2 and s, 10.0, "the arrival in the view")
+    return paper_demo.workdir, url, state
 
 
 def test_the_view_shows_the_paper_obstacles_mapped_where_they_are(flown):
