@@ -28,7 +28,6 @@ flight_record.py.
 from __future__ import annotations
 
 import asyncio
-import ctypes
 import dataclasses
 import logging
 import math
@@ -42,6 +41,7 @@ import yaml
 from companion import ardupilot_sitl as sitl
 from companion.adapters import codec, gcs_codec
 from companion.adapters.mavlink_link import open_link
+from companion.child_lifetime import die_with_parent_hook
 from companion.config import GoalConfig, Scenario, config_to_dict, load_config
 from companion.core.flat_earth import to_lat_lon_deg
 from companion.demo import (GCS_SYSTEM_ID, Child, DemoError, DemoFiles, demo_config, read_report,
@@ -67,10 +67,6 @@ SETTLE_SPEED_MPS = 0.3
 SETTLE_TIMEOUT_S = 5.0
 ORIGIN_TOLERANCE_M = 1.0
 ALTITUDE_REACHED = 0.95
-PR_SET_PDEATHSIG = 1          # linux/prctl.h
-# The process's own symbols (libc's prctl among them), loaded now: nothing may be loaded in a
-# forked child before exec.
-_LIBC = ctypes.CDLL(None) if sys.platform.startswith("linux") else None
 
 
 @dataclass(frozen=True)
@@ -127,12 +123,6 @@ def vehicle_noise_of_the_autopilot(estimator, base_path: str = "config/companion
     return dataclasses.replace(estimator, **{k: getattr(base, k) for k in VEHICLE_NOISE_KEYS})
 
 
-def _die_with_parent() -> None:
-    """In the child before exec (Linux): SIGTERM when the demo dies, even by SIGKILL or a test's
-    timeout, so that no SITL is left running at ten times real time with nobody to stop it."""
-    _LIBC.prctl(PR_SET_PDEATHSIG, signal.SIGTERM)
-
-
 async def spawn_in(name: str, args: list[str], cwd: Path, log_dir: Path,
                    stdout=asyncio.subprocess.DEVNULL) -> Child:
     """A child in ``cwd`` whose stderr goes to LOG_DIR/NAME.stderr (stdout too, if "merge")."""
@@ -141,7 +131,9 @@ async def spawn_in(name: str, args: list[str], cwd: Path, log_dir: Path,
         proc = await asyncio.create_subprocess_exec(
             *args, stdout=err if stdout == "merge" else stdout, stderr=err, cwd=cwd,
             stdin=asyncio.subprocess.DEVNULL,
-            preexec_fn=_die_with_parent if sys.platform.startswith("linux") else None)
+            # SIGTERM when the demo dies, even by SIGKILL or a test's timeout: no SITL left
+            # running at ten times real time with nobody to stop it
+            preexec_fn=die_with_parent_hook())
     return Child(name, proc, stderr_path)
 
 
