@@ -90,13 +90,14 @@ def test_random_worlds_acceptance(tmp_path, kind):
 
 def test_moving_worlds_are_flown_safely_and_the_pose_stays_consistent(tmp_path):
     # NEES band fraction over 20 runs is itself a statistic: for seed bases 0, 100, 200, 500 and
-    # 900 it measured 1.00, 0.94, 1.00, 0.82 and 0.98 (NEES mean 2.5 to 3.2). The test pins base 0,
-    # 10 runs for the default run's time (the 100-run acceptance is marked slow); one failure
-    # allowed, as 1 in 20 before (seed 13, 9.3 m from a mover, in both this and the next test).
-    report = simulate(tmp_path, "--random-worlds", "moving", "--runs", "10", "--seed", "0")
+    # 900 it measured 1.00, 0.94, 1.00, 0.82 and 0.98 (NEES mean 2.5 to 3.2). The test pins base 0
+    # and keeps 20 runs: over 10 the band is wider but one run's spike moves the mean (seeds 0-9
+    # gave 0.95 and, after issue 16's out-of-view widening changed a few paths, 0.86; seeds 0-19
+    # 1.00 both times, measured 2026-12-02).
+    report = simulate(tmp_path, "--random-worlds", "moving", "--runs", "20", "--seed", "0")
     agg = report["aggregate"]
     assert agg["collision_rate"] == 0.0
-    assert agg["success_rate"] >= 0.9
+    assert agg["success_rate"] >= 0.95
     assert agg["nees"]["in_band_fraction"] >= 0.9
 
 
