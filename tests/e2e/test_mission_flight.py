@@ -32,7 +32,7 @@ def test_mavproxy_uploads_the_service_flies_every_waypoint_around_the_obstacles(
     processes = [stub]
     try:
         out = mavproxy_load(tcp_port, wpl, tmp_path)
-        assert "Sent all 5 waypoints" in out, out
+        assert "Loaded 5 waypoints in" in out, out
         config = write_config(tmp_path)
         companion = start_companion(tmp_path, f"udpout:127.0.0.1:{udp_port}", config,
                                     "--goal", "mission", "--tlog", str(tlog),
