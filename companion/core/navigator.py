@@ -415,13 +415,7 @@ class Navigator:
         if isinstance(obs, SurfacePoint):
             return self._observe_surface(obs, z, key if action == "update" else None)
         if action == "update" and key in ids:
-            index = ids.index(key)
-            report = slam.update_landmark(z, index, landmark_only=self._schmidt(key),
-                                          meas_cov=obs.meas_cov_array())
-            if not self._schmidt(key):
-                self.monitor.add(self.clock_s, report.nis, 2)
-            self._note_young(key, obs, report.action)
-            return report
+            return self._update_landmark(key, ids.index(key), z, obs)
         moved = self._moved_young(place(self._young_pose(), z))
         if moved is not None:
             self._relocate(moved, z, obs, used)
@@ -445,14 +439,11 @@ class Navigator:
                 self._frame_near.add(key)
                 return UpdateReport("ambiguous", ids.index(key), None, None, None)
             return UpdateReport("ambiguous", None, None, None, None)
-        report = slam.add_landmark(z, None, obs.meas_cov_array()) if action == "new" \
-            else slam.update(obs, exclude=used)
+        if action == "new":
+            return self._add_anonymous(z, obs)
+        report = slam.update(obs, exclude=used)
         if report.action == "added":
-            key = self._next_anonymous_id
-            self._next_anonymous_id -= 1
-            slam.set_landmark_id(report.landmark_index, key)
-            self._born(key)
-            self._note_young(key, obs, "added")
+            self._name_anonymous(report, obs)
         return report
 
     def _observe_surface(self, obs: SurfacePoint, z: np.ndarray, paired: int | None) -> UpdateReport:
@@ -469,25 +460,38 @@ class Navigator:
                                float(pose[2]), float(slam.pose_cov[2, 2]), 0.5 * obs.stretch_m)
             covers = nis <= slam.gates.accept_nis
             if paired in ids and covers[ids.index(paired)]:
-                index = ids.index(paired)
-                young = self._schmidt(paired)
-                report = slam.update_landmark(z, index, landmark_only=young,
-                                              meas_cov=obs.meas_cov_array())
-                if not young:
-                    self.monitor.add(self.clock_s, report.nis, 2)
-                self._note_young(paired, obs, report.action)
-                return report
+                return self._update_landmark(paired, ids.index(paired), z, obs)
             if covers.any():
                 best = int(np.argmin(nis))
                 self._frame_near.add(ids[best])
                 return UpdateReport("ambiguous", best, None, float(nis[best]), None)
-        report = slam.add_landmark(z, None, obs.meas_cov_array())
+        return self._add_anonymous(z, obs)
+
+    def _update_landmark(self, key: int, index: int, z: np.ndarray,
+                         obs: Observation) -> UpdateReport:
+        """Update the id-less landmark ``key`` (state index ``index``) the association chose;
+        a young or tentative one corrects only itself and is left out of the monitor."""
+        young = self._schmidt(key)
+        report = self.slam.update_landmark(z, index, landmark_only=young,
+                                           meas_cov=obs.meas_cov_array())
+        if not young:
+            self.monitor.add(self.clock_s, report.nis, 2)
+        self._note_young(key, obs, report.action)
+        return report
+
+    def _add_anonymous(self, z: np.ndarray, obs: Observation) -> UpdateReport:
+        report = self.slam.add_landmark(z, None, obs.meas_cov_array())
+        self._name_anonymous(report, obs)
+        return report
+
+    def _name_anonymous(self, report: UpdateReport, obs: Observation) -> None:
+        """A landmark just added without an id gets the next internal negative one (never
+        published) and starts its probation."""
         key = self._next_anonymous_id
         self._next_anonymous_id -= 1
-        slam.set_landmark_id(report.landmark_index, key)
+        self.slam.set_landmark_id(report.landmark_index, key)
         self._born(key)
         self._note_young(key, obs, "added")
-        return report
 
     def _note_young(self, key: int, obs: Observation, action: str) -> None:
         if action in ("updated", "added", "outlier", "moved"):
