@@ -139,41 +139,52 @@ def _fly_one(start: np.ndarray, motion: Motion, heading: float, commanded: float
     """fly_out's loop for one command in Python floats (J = 1 is most calls: the goal heading's
     path; numpy's per-call cost was nearly all of it). The same operations in the same order;
     positions (1, N, 2), speeds (1, N)."""
+    # Each clip is written as min(max(x, lo), hi) evaluates (max keeps x unless lo > x, min
+    # keeps it unless hi < it), without the two builtin calls, and the path is one flat list:
+    # the same values, less time.
     dv = motion.max_accel_mps2 * STEP_S
+    neg_dv = -dv
     half_fov = 0.5 * fov_rad
     rate = motion.max_turn_rate_rad_s
     lateral = motion.max_lateral_accel_mps2
     fixed_limit = rate * STEP_S
+    pi, cos, sin = math.pi, math.cos, math.sin
     course, speed = float(motion.course_rad), float(motion.speed_mps)
     north, east = float(start[0]), float(start[1])
-    path: list[tuple[float, float]] = []
+    path: list[float] = []
     speeds: list[float] = []
+    limit = fixed_limit
     for k in range(steps):
-        error = (heading - course + math.pi) % TWO_PI - math.pi
+        error = (heading - course + pi) % TWO_PI - pi
         if k < cruise_steps:
-            target = 0.0 if abs(error) > half_fov else commanded * math.cos(error)
+            target = 0.0 if abs(error) > half_fov else commanded * cos(error)
         else:
             if speed == 0.0:
-                path += [path[-1]] * (steps - k)
+                path += path[-2:] * (steps - k)
                 speeds += [0.0] * (steps - k)
                 break
             target = 0.0
-        new_speed = speed + min(max(target - speed, -dv), dv)
+        change = target - speed
+        change = neg_dv if neg_dv > change else change
+        new_speed = speed + (dv if dv < change else change)
         mean_speed = 0.5 * (speed + new_speed)
-        if lateral is None:
-            limit = fixed_limit
-        else:
-            limit = min(rate, lateral / max(mean_speed, 1e-3)) * STEP_S
-        turn = min(max(error, -limit), limit)
+        if lateral is not None:
+            floor = 1e-3 if 1e-3 > mean_speed else mean_speed
+            turn_rate = lateral / floor
+            limit = (turn_rate if turn_rate < rate else rate) * STEP_S
+        neg_limit = -limit
+        turn = neg_limit if neg_limit > error else error
+        turn = limit if limit < turn else turn
         mid = course + 0.5 * turn
         step_m = mean_speed * STEP_S
-        north = north + step_m * math.cos(mid)
-        east = east + step_m * math.sin(mid)
+        north = north + step_m * cos(mid)
+        east = east + step_m * sin(mid)
         course = course + turn
         speed = new_speed
-        path.append((north, east))
+        path.append(north)
+        path.append(east)
         speeds.append(speed)
-    return np.array(path, dtype=float).reshape(1, steps, 2), np.array(speeds).reshape(1, steps)
+    return np.array(path).reshape(1, steps, 2), np.array(speeds).reshape(1, steps)
 
 
 def clearance(rollout: Rollout, obstacles: np.ndarray, radii: np.ndarray,
