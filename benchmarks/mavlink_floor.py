@@ -21,9 +21,11 @@ computed: the figure is a floor that no pymavlink-based loop of these two proces
 on this machine. The bound counts neither the copies the stub also sends the demo's ground
 station nor the companion's tlog writing.
 
-``max_real_time_factor`` = 0.1 s / (pack + parse + UDP per step). Each pass over the flight is
-timed whole; the figures are medians of ``repeats`` passes, the three parts and the combined
-pass (pack, send, receive, parse, message by message) interleaved.
+Each pass over the flight is timed whole; the figures are medians of ``repeats`` passes of
+each part and of the combined pass (pack, send, receive, parse, message by message, as a loop
+does), interleaved. The combined pass costs more than its parts run apart (each part's code
+stays hot then): ``max_real_time_factor`` = 0.1 s / the smaller of the two, so that no
+pymavlink loop can do better than it.
 """
 from __future__ import annotations
 
@@ -156,7 +158,8 @@ def measure(tlog: Path, repeats: int) -> dict:
             "pack_us_per_step": per_step["pack"], "parse_us_per_step": per_step["parse"],
             "udp_us_per_step": per_step["udp"], "combined_us_per_step": per_step["combined"],
             "sum_of_parts_us_per_step": per_step["pack"] + per_step["parse"] + per_step["udp"],
-            "max_real_time_factor": STEP_S / (per_step["combined"] * 1e-6),
+            "max_real_time_factor": STEP_S / (min(per_step["combined"], per_step["pack"]
+                                                  + per_step["parse"] + per_step["udp"]) * 1e-6),
             "messages_by_source": dict(sorted(by_source.items()))}
 
 
@@ -172,7 +175,7 @@ def fly_tlog(workdir: Path) -> Path:
 
 
 def run(quick: bool, tlog: Path | None = None) -> dict:
-    repeats = 3 if quick else 7
+    repeats = 5 if quick else 9
     if tlog is not None:
         return measure(tlog, repeats)
     with tempfile.TemporaryDirectory(prefix="mavlink-floor-") as tmp:
@@ -189,8 +192,9 @@ def print_floor(floor: dict) -> None:
     print(f"MAVLink floor of the lock-step loop (pymavlink pack + parse + loopback UDP of one "
           f"step's {floor['messages_per_step']:.1f} messages, {floor['bytes_per_step']:.0f} B, "
           f"paper flight, {floor['steps']} steps): pack {floor['pack_us_per_step']:.0f} + parse "
-          f"{floor['parse_us_per_step']:.0f} + UDP {floor['udp_us_per_step']:.0f} us; together "
-          f"{floor['combined_us_per_step']:.0f} us a step = at most "
+          f"{floor['parse_us_per_step']:.0f} + UDP {floor['udp_us_per_step']:.0f} = "
+          f"{floor['sum_of_parts_us_per_step']:.0f} us, together (message by message) "
+          f"{floor['combined_us_per_step']:.0f} us a step: at most "
           f"{floor['max_real_time_factor']:.0f}x real time")
 
 
