@@ -59,9 +59,9 @@ def measure(landmarks: int, reps: int) -> dict:
         return lambda: slam.update(obs)
 
     predict_us = median_us(lambda: slam.predict(1.0, 0.001, 0.1), reps * 4)
-    # the update and its floor in alternating blocks, so a change of the machine's load
-    # while they run weighs on both (drawing the observation: untimed)
-    update_us, floor_us = paired_us(prepared_update, floor_call(slam, 1, rng), reps * 5)
+    # the update and its floor interleaved call by call on the same matrix, so a change of
+    # the machine's load while they run weighs on both (drawing the observation: untimed)
+    update_us, floor_us = paired_us(prepared_update, floor_call(slam, 1, rng), reps * 25)
     k = min(FRAME_OBSERVATIONS, landmarks)
 
     def frame(batched: bool):
@@ -75,7 +75,7 @@ def measure(landmarks: int, reps: int) -> dict:
 
     frame_sequential_us = median_prepared_us(lambda: frame(False), reps)
     frame_batch_us, frame_floor_us = paired_us(lambda: frame(True), floor_call(slam, k, rng),
-                                               reps * 2)
+                                               reps * 5)
 
     dense = DenseEkfSlam(slam.pose, slam.pose_cov, NOISE.speed_sigma_mps,
                          NOISE.heading_change_sigma_rad, NOISE.reference_dt_s,
@@ -102,12 +102,13 @@ def measure(landmarks: int, reps: int) -> dict:
 
 
 def floor_call(slam: EkfSlam, observations: int, rng):
-    """The update's own BLAS call alone, for a rank-2K correction (K observations), on a copy
-    of the filter's covariance (same size, same C layout, updated in place through its
-    transpose as EkfSlam._apply_rows does), with Fortran-ordered (N, 4K) operands as the
-    update passes them (C-ordered ones would make dgemm copy them: a slower, false floor).
-    Signs alternate so the values stay bounded."""
-    cov = slam.cov.copy()
+    """The update's own BLAS call alone, for a rank-2K correction (K observations), on the
+    filter's own covariance (the same matrix, the same memory, updated in place through its
+    transpose as EkfSlam._correct does, with the same positional call), with Fortran-ordered
+    (N, 4K) operands as the update passes them (C-ordered ones would make dgemm copy them: a
+    slower, false floor). Signs alternate, so two calls put the matrix back (to rounding: the
+    operands are 1e-3, their products 1e-6) and the filter stays as it was."""
+    cov = slam._cov_buf
     n, width = cov.shape[0], 4 * observations
     left = np.asfortranarray(rng.normal(size=(n, width)) * 1e-3)
     right = np.asfortranarray(rng.normal(size=(n, width)) * 1e-3)
@@ -115,7 +116,7 @@ def floor_call(slam: EkfSlam, observations: int, rng):
 
     def call() -> None:
         sign[0] = -sign[0]
-        dgemm(sign[0], right, left, beta=1.0, c=cov.T, trans_b=1, overwrite_c=1)
+        dgemm(sign[0], right, left, 1.0, cov.T, 0, 1, 1)
     return call
 
 
@@ -124,20 +125,22 @@ def floor_of(slam: EkfSlam, observations: int, reps: int, rng) -> float:
     return median_us(floor_call(slam, observations, rng), reps)
 
 
-def paired_us(prepare, floor, reps: int, blocks: int = 10) -> tuple[float, float]:
-    """Medians of ``prepare()()`` (preparing untimed) and of ``floor()``, timed in alternating
-    blocks of reps / blocks each."""
+def paired_us(prepare, floor, reps: int) -> tuple[float, float]:
+    """Medians of ``prepare()()`` (preparing untimed) and of ``floor()``, interleaved call by
+    call: each repeat times the update once, then the floor twice (its two signs: the matrix is
+    put back). Whatever the machine's load does while they run weighs on both alike, so their
+    ratio holds on a busy machine where each figure alone moves by a third."""
     times, floor_times = [], []
-    for _ in range(blocks):
-        for _ in range(max(1, reps // blocks)):
-            fn = prepare()
-            start = time.perf_counter()
-            fn()
-            times.append(time.perf_counter() - start)
-        for _ in range(max(1, reps // blocks)):
-            start = time.perf_counter()
+    clock = time.perf_counter
+    for _ in range(reps):
+        fn = prepare()
+        start = clock()
+        fn()
+        times.append(clock() - start)
+        for _ in range(2):
+            start = clock()
             floor()
-            floor_times.append(time.perf_counter() - start)
+            floor_times.append(clock() - start)
     return float(np.median(times) * 1e6), float(np.median(floor_times) * 1e6)
 
 

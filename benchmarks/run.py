@@ -60,6 +60,12 @@ def targets(report: dict) -> dict:
         out["closed_loop_lockstep_real_time_factor"] = \
             system["closed_loop_lockstep"]["real_time_factor"]
         limits["closed_loop_lockstep_real_time_factor"] = (">=", 500.0)
+    if "mavlink_floor" in report:
+        # the most any pymavlink loop exchanging the same messages could reach here: info,
+        # it says whether the 500x above is reachable at all (benchmarks/mavlink_floor.py)
+        out["lockstep_mavlink_floor_max_real_time_factor"] = \
+            report["mavlink_floor"]["max_real_time_factor"]
+        limits["lockstep_mavlink_floor_max_real_time_factor"] = ("info", None)
     verdicts = {}
     for key, value in out.items():
         op, limit = limits[key]
@@ -99,6 +105,9 @@ def print_report(report: dict) -> None:
     if "system" in report:
         from benchmarks.system import print_system
         print_system(report["system"])
+    if "mavlink_floor" in report:
+        from benchmarks.mavlink_floor import print_floor
+        print_floor(report["mavlink_floor"])
     print("targets:")
     for key, verdict in report["targets"].items():
         value = "-" if verdict["value"] is None else f"{verdict['value']:.3f}"
@@ -119,6 +128,8 @@ def main() -> int:
     if not args.skip_system:
         from benchmarks import system
         report["system"] = system.run(args.quick)
+        from benchmarks import mavlink_floor
+        report["mavlink_floor"] = mavlink_floor.run(args.quick)
     report["targets"] = targets(report)
     report["wall_s"] = time.perf_counter() - started
     print_report(report)

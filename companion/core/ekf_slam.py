@@ -139,9 +139,33 @@ def _joseph_coef2(s00, s01, s11, i00, i01, i11, v0, v1) -> np.ndarray:
     same with i, innovation (v0, v1)."""
     m00, m01 = s00 * i00 + s01 * i01, s00 * i01 + s01 * i11              # S S^-1
     m10, m11 = s01 * i00 + s11 * i01, s01 * i01 + s11 * i11
-    return np.array(((i00, i01), (i01, i11), (1.0 - 0.5 * m00, -0.5 * m01),
-                     (-0.5 * m10, 1.0 - 0.5 * m11), (i00, i01), (i01, i11),
-                     (i00 * v0 + i01 * v1, i01 * v0 + i11 * v1)))
+    return np.array((i00, i01, i01, i11, 1.0 - 0.5 * m00, -0.5 * m01,   # flat: half the time
+                     -0.5 * m10, 1.0 - 0.5 * m11, i00, i01, i01, i11,    # of nested tuples
+                     i00 * v0 + i01 * v1, i01 * v0 + i11 * v1)).reshape(7, 2)
+
+
+_STATE_COLUMNS: dict[int, np.ndarray] = {}
+
+
+def _observed_states(index: int) -> np.ndarray:
+    """The five states one observation of landmark ``index`` touches (pose, landmark), kept."""
+    s0 = POSE_DIM + LANDMARK_DIM * index
+    cols = np.array((0, 1, 2, s0, s0 + 1))
+    cols.flags.writeable = False
+    return _STATE_COLUMNS.setdefault(index, cols)
+
+
+def _report(action, landmark_index, innovation, nis, obstacle_id) -> "UpdateReport":
+    """UpdateReport(...) for the per-observation hot path: the same frozen object, its fields
+    set directly (a frozen dataclass's __init__ sets each through object.__setattr__, about
+    0.4 us warm, three times that after the BLAS pass)."""
+    report = _new_object(UpdateReport)
+    report.__dict__.update(action=action, landmark_index=landmark_index, innovation=innovation,
+                           nis=nis, obstacle_id=obstacle_id)
+    return report
+
+
+_new_object = object.__new__
 
 
 _FRAME_LAYOUTS: dict[int, tuple] = {}
@@ -194,6 +218,7 @@ class EkfSlam:
         self._dim = POSE_DIM
         self._id_to_index: dict[int, int] = {}
         self._index_to_id: list[int | None] = []
+        self._scratch: tuple = (None,)          # see _make_scratch
 
     # ----------------------------------------------------------------- views
     @property
@@ -375,19 +400,14 @@ class EkfSlam:
         covariance kept exact for that suboptimal gain (Joseph form). The navigator uses it
         while a new landmark is on probation: if it turns out to move, it never touched the pose.
         """
-        z = (obs.range_m, obs.bearing_rad)
+        z = (float(obs.range_m), float(obs.bearing_rad))     # numpy scalars cost 3x in arithmetic
         r = obs.meas_cov
         if obs.obstacle_id is not None:
             index = self._id_to_index.get(obs.obstacle_id)
             if index is None:
                 return self._add(np.array(z), obs.obstacle_id,
                                  None if r is None else np.asarray(r, dtype=float))
-            parts = self._innovation(z, index, r)
-            nis = parts.nis
-            if nis > self.gates.outlier_nis:
-                return UpdateReport("outlier", index, parts.innovation, nis, obs.obstacle_id)
-            return self._correct(parts, index, obs.obstacle_id,
-                                 landmark_only or nis > self.gates.pose_nis)
+            return self._update_known(z, index, r, obs.obstacle_id, landmark_only)
         if r is not None:
             r = np.asarray(r, dtype=float)
         if self.landmark_count == 0:
@@ -605,8 +625,9 @@ class EkfSlam:
         symmetric) in one small product; S and its inverse are 2x2, written out in scalars.
         """
         mean, cov = self._mean_buf, self._cov_buf
-        s0 = POSE_DIM + LANDMARK_DIM * index
-        cols = np.array((0, 1, 2, s0, s0 + 1))
+        cols = _STATE_COLUMNS.get(index)
+        if cols is None:
+            cols = _observed_states(index)
         north, east, yaw, d_north, d_east = mean.take(cols).tolist()
         d_north -= north
         d_east -= east
@@ -634,6 +655,61 @@ class EkfSlam:
         return _Innovation((innov_r, innov_b), ((s00, s01), (s01, s11)),
                            ((i00, i01), (i01, i11)), hp, nis)
 
+    def _update_known(self, z: tuple, index: int, meas_cov, obstacle_id: int,
+                      landmark_only: bool) -> UpdateReport:
+        """:meth:`update` of an observation its id has associated with landmark ``index``:
+        :meth:`_innovation`, the gates and :meth:`_correct_pose` in one function, the navigator's
+        hot path (their calls and the _Innovation between them cost about 2 us in 15 of
+        non-BLAS work at 200 landmarks). The arithmetic is theirs, line for line, so the result
+        is bit-identical (tests/core/test_ekf_update_paths.py checks it against update_landmark,
+        which goes through them); falls back to them off the straight path."""
+        mean, cov = self._mean_buf, self._cov_buf
+        cols = _STATE_COLUMNS.get(index)
+        if cols is None:
+            cols = _observed_states(index)
+        north, east, yaw, d_north, d_east = mean.take(cols).tolist()
+        d_north -= north
+        d_east -= east
+        range_sq = d_north * d_north + d_east * d_east
+        range_m = math.sqrt(range_sq)
+        v0 = z[0] - range_m
+        v1 = wrap_angle(z[1] - (math.atan2(d_east, d_north) - yaw))
+        a, b = d_north / range_m, d_east / range_m
+        c, e = d_east / range_sq, d_north / range_sq
+        hp = np.array(((-a, -b, 0.0, a, b), (c, -e, -1.0, -c, e))).dot(cov.take(cols, axis=0))
+        (h00, h01, h02, h03, h04), (h10, h11, h12, h13, h14) = hp.take(cols, axis=1).tolist()
+        u0, u1, w0, w1 = h03 - h00, h13 - h10, h04 - h01, h14 - h11
+        if meas_cov is None:
+            (r00, r01), (_, r11) = self._meas_cov_rows
+        else:
+            (r00, r01), (_, r11) = meas_cov
+        s00 = a * u0 + b * w0 + r00
+        s01 = 0.5 * ((-c * u0 + e * w0 - h02) + (a * u1 + b * w1)) + r01
+        s11 = -c * u1 + e * w1 - h12 + r11
+        det = s00 * s11 - s01 * s01
+        i00, i01, i11 = s11 / det, -s01 / det, s00 / det
+        nis = i00 * v0 * v0 + 2.0 * i01 * v0 * v1 + i11 * v1 * v1
+        gates = self.gates
+        if nis > gates.outlier_nis:
+            return UpdateReport("outlier", index, (v0, v1), nis, obstacle_id)
+        if landmark_only or nis > gates.pose_nis:
+            return self._correct(_Innovation((v0, v1), ((s00, s01), (s01, s11)),
+                                             ((i00, i01), (i01, i11)), hp, nis),
+                                 index, obstacle_id, True)
+        m00, m01 = s00 * i00 + s01 * i01, s00 * i01 + s01 * i11              # S S^-1
+        m10, m11 = s01 * i00 + s11 * i01, s01 * i01 + s11 * i11
+        coef = np.array((i00, i01, i01, i11, 1.0 - 0.5 * m00, -0.5 * m01,
+                         -0.5 * m10, 1.0 - 0.5 * m11, i00, i01, i01, i11,
+                         i00 * v0 + i01 * v1, i01 * v0 + i11 * v1)).reshape(7, 2)
+        scratch = self._scratch
+        if scratch[0] is not cov:
+            scratch = self._make_scratch()
+        np.dot(coef, hp, out=scratch[1])
+        mean += scratch[2]
+        mean[2] = wrap_angle(mean.item(2))
+        dgemm(-1.0, scratch[3], scratch[4], 1.0, scratch[5], 0, 1, 1)
+        return _report("updated", index, (v0, v1), nis, obstacle_id)
+
     def _correct(self, parts: "_Innovation", index: int, obstacle_id: int | None,
                  landmark_only: bool = False) -> UpdateReport:
         """Kalman update of one landmark; Joseph form, applied in place as one rank-4 correction.
@@ -646,11 +722,41 @@ class EkfSlam:
             self._correct_landmark_only(index, np.array(parts.innovation), np.array(parts.s),
                                         np.array(parts.s_inv), parts.hp.T)
             return UpdateReport("updated", index, parts.innovation, parts.nis, obstacle_id)
+        return self._correct_pose(parts, index, obstacle_id)
+
+    def _correct_pose(self, parts: "_Innovation", index: int,
+                      obstacle_id: int | None) -> UpdateReport:
+        """:meth:`_correct` of the whole state (not landmark-only): C H P with C of
+        :func:`_joseph_coef2` written out here, one call fewer on the navigator's path."""
         (s00, s01), (_, s11) = parts.s
         (i00, i01), (_, i11) = parts.s_inv
-        coef = _joseph_coef2(s00, s01, s11, i00, i01, i11, *parts.innovation)
-        self._apply_rows(coef.dot(parts.hp), 2)
-        return UpdateReport("updated", index, parts.innovation, parts.nis, obstacle_id)
+        v0, v1 = parts.innovation
+        m00, m01 = s00 * i00 + s01 * i01, s00 * i01 + s01 * i11              # S S^-1
+        m10, m11 = s01 * i00 + s11 * i01, s01 * i01 + s11 * i11
+        coef = np.array((i00, i01, i01, i11, 1.0 - 0.5 * m00, -0.5 * m01,
+                         -0.5 * m10, 1.0 - 0.5 * m11, i00, i01, i01, i11,
+                         i00 * v0 + i01 * v1, i01 * v0 + i11 * v1)).reshape(7, 2)
+        # The rank-2 path, the navigator's: C H P into a buffer kept with the covariance, whose
+        # views dgemm and the mean take are made once per size (each numpy call after the BLAS
+        # pass, which has just streamed P through the cache, costs about 3x its warm time).
+        scratch = self._scratch
+        if scratch[0] is not self._cov_buf:
+            scratch = self._make_scratch()
+        np.dot(coef, parts.hp, out=scratch[1])
+        mean = self._mean_buf
+        mean += scratch[2]
+        mean[2] = wrap_angle(mean.item(2))
+        dgemm(-1.0, scratch[3], scratch[4], 1.0, scratch[5], 0, 1, 1)
+        return _report("updated", index, parts.innovation, parts.nis, obstacle_id)
+
+    def _make_scratch(self) -> tuple:
+        """(P, rows (7, N), the mean's step row, [B K] and [K B] as Fortran (N, 4) views, P^T)
+        for :meth:`_correct`'s rank-2 pass, made again whenever P is reallocated."""
+        rows = np.empty((3 * LANDMARK_DIM + 1, self._cov_buf.shape[0]))
+        self._scratch = (self._cov_buf, rows, rows[3 * LANDMARK_DIM],
+                         rows[LANDMARK_DIM:3 * LANDMARK_DIM].T, rows[:2 * LANDMARK_DIM].T,
+                         self._cov_buf.T)
+        return self._scratch
 
     def _joseph_rows(self, hp: np.ndarray, s, s_inv, innovation) -> None:
         """The in-place mean and Joseph update from H P (k, N), S and S^-1 (k, k), innovation (k,).

@@ -119,3 +119,30 @@ def test_position_and_yaw_fixes_equal_the_dense_joseph_update():
                                           np.array([[1e-4]]))
     assert slam.update_yaw(yaw, 0.01, 1e9).action == "yaw"
     assert_same_state(slam, want_mean, want_cov)
+
+
+@pytest.mark.parametrize("meas_cov", [None, ((0.04, 0.001), (0.001, 4e-4))])
+def test_update_by_id_is_bit_identical_to_update_landmark(meas_cov):
+    """update() of an id-associated observation runs its own copy of the innovation and the
+    rank-2 correction (the navigator's hot path); update_landmark() goes through _innovation and
+    _correct. Same arithmetic, so the same bits, across landmarks added, removed and copied in
+    between (the correction's buffer follows the covariance when it is reallocated)."""
+    by_id, rng = correlated_filter()
+    by_index = by_id.copy()
+    for step in range(60):
+        index = int(rng.integers(by_id.landmark_count))
+        z = predicted(by_id, index, rng)
+        a = by_id.update(Observation(z[0], z[1], by_id.landmark_ids()[index], meas_cov))
+        b = by_index.update_landmark(np.array(z), index, meas_cov=meas_cov)
+        assert (a.action, a.landmark_index, a.innovation, a.nis) == \
+            (b.action, b.landmark_index, b.innovation, b.nis)
+        if step % 20 == 5:
+            for slam in (by_id, by_index):
+                slam.add_landmark(np.array([30.0, 0.1 * step]), obstacle_id=1000 + step)
+        if step == 30:
+            by_id.remove_landmark(2)
+            by_index.remove_landmark(2)
+        if step == 40:
+            by_id, by_index = by_id.copy(), by_index.copy()
+        assert np.array_equal(by_id.mean, by_index.mean)
+        assert np.array_equal(by_id.cov, by_index.cov)
