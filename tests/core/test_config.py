@@ -67,20 +67,19 @@ def test_missing_key_and_bad_yaml(tmp_path):
 
 def test_a_scenarios_yaw_bias_reaches_the_truth_and_the_filter_of_a_multicopter(tmp_path):
     import math
-    copter = open("config/scenarios/copter.yaml").read()
-    noise = "  yaw_sigma_deg: 2.0 "
-    assert noise in copter
-    text = copter.replace(noise, "  yaw_bias_sigma_deg: 1.2\n  yaw_bias_tau_s: 300.0\n" + noise)
-    s = load_scenario(write(tmp_path, text))
+
+    import yaml
+    data = yaml.safe_load(open("config/scenarios/copter.yaml"))
+    data["noise"].update(yaw_bias_sigma_deg=1.2, yaw_bias_tau_s=300.0)
+    del data["estimator"]            # the filter matched to the noise, the bias included
+    s = load_scenario(write(tmp_path, yaml.safe_dump(data)))
     assert (s.noise.yaw_bias_sigma_deg, s.noise.yaw_bias_tau_s) == (1.2, 300.0)
-    # without an estimator section the filter is matched to the noise, the bias included
-    no_estimator = text.split("\nestimator:")[0] + "\navoidance:" + text.split("\navoidance:")[1]
-    est = load_scenario(write(tmp_path, no_estimator)).estimator_config()
+    est = s.estimator_config()
     assert (est.yaw_bias_sigma_deg, est.yaw_bias_tau_s) == (1.2, 300.0)
     options = est.options()
     assert options.yaw_bias_sigma_rad == pytest.approx(math.radians(1.2))
     assert options.yaw_fix_sigma_rad(0.1) > 10 * options.yaw_sigma_rad
     assert load_scenario("config/scenarios/paper.yaml").estimator_config(
         flown_as="multicopter").yaw_bias_sigma_deg == 0.0
-    assert "noise.yaw_bias_tau_s" in error_for(tmp_path, text.replace("yaw_bias_tau_s: 300.0",
-                                                                      "yaw_bias_tau_s: 0"))
+    data["noise"]["yaw_bias_tau_s"] = 0
+    assert "noise.yaw_bias_tau_s" in error_for(tmp_path, yaml.safe_dump(data))

@@ -156,9 +156,15 @@ def test_the_truths_ahrs_yaw_carries_its_bias_and_the_vehicle_steers_by_it():
     assert np.mean(errors) == pytest.approx(truth.yaw_bias_rad, abs=math.radians(0.1))
     assert truth.pose[2] == pytest.approx(-truth.yaw_bias_rad, abs=1e-3)   # turned by its AHRS
     # without a bias sigma nothing is drawn: the random stream (and every flight) as before
-    plain = [TruthWorld(base, np.random.default_rng(3)).step_copter(np.zeros(2), 0.0).yaw_rad
-             for _ in range(2)]
-    assert plain[0] == plain[1] and TruthWorld(base, np.random.default_rng(3)).yaw_bias_rad == 0.0
+    unbiased = dataclasses.replace(base, noise=dataclasses.replace(noise, yaw_bias_sigma_deg=0.0))
+    rng = np.random.default_rng(3)
+    world = TruthWorld(unbiased, rng)
+    odo = world.step_copter(np.zeros(2), 0.0)
+    rng = np.random.default_rng(3)               # copter_odometry's draws: GPS bias, velocity
+    rng.normal(0.0, base.noise.position_bias_sigma_m, 2)
+    vel = rng.normal(0.0, base.noise.velocity_sigma_mps, 2)
+    assert odo.vel_north_mps - world.vel_ne_mps[0] == pytest.approx(float(vel[0]), abs=1e-12)
+    assert TruthWorld(unbiased, np.random.default_rng(3)).yaw_bias_rad == 0.0
 
 
 def biased_yaw_hover(options: EstimatorOptions, seed: int, steps: int = 600):
