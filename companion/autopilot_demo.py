@@ -115,7 +115,8 @@ def service_config(scenario: Scenario, takeoff_alt_m: float):
 # SIMSTATE throughout, while the scenario's 0.5 deg compass noise let the filter's yaw sigma settle
 # at 0.15 deg: NEES 88, in band 16%.) The camera is still the stub's, so its R stays the scenario's.
 VEHICLE_NOISE_KEYS = ("vel_north_sigma_mps", "vel_east_sigma_mps", "yaw_rate_sigma_deg_s",
-                      "yaw_sigma_deg", "initial_yaw_sigma_deg")
+                      "yaw_sigma_deg", "yaw_bias_sigma_deg", "yaw_bias_tau_s",
+                      "initial_yaw_sigma_deg")
 
 
 def vehicle_noise_of_the_autopilot(estimator, base_path: str = "config/companion.yaml"):

@@ -224,6 +224,8 @@ class NoiseConfig:
     velocity_sigma_mps: float = 0.1           # multicopter: per NED axis, per sample
     yaw_rate_sigma_deg_s: float = 0.5
     yaw_sigma_deg: float = 2.0
+    yaw_bias_sigma_deg: float = 0.0           # multicopter: the AHRS yaw's slow bias
+    yaw_bias_tau_s: float = 600.0             # (Gauss-Markov), off by default
     position_sigma_m: float = 0.3             # the GPS-like position: white noise per fix ...
     position_bias_sigma_m: float = 0.5        # ... plus a slow Gauss-Markov bias
     position_bias_tau_s: float = 120.0
@@ -232,9 +234,10 @@ class NoiseConfig:
         _sigma("speed_sigma_mps", self.speed_sigma_mps)
         _sigma("heading_change_sigma_deg", self.heading_change_sigma_deg)
         for key in ("velocity_sigma_mps", "yaw_rate_sigma_deg_s", "yaw_sigma_deg",
-                    "position_sigma_m", "position_bias_sigma_m"):
+                    "yaw_bias_sigma_deg", "position_sigma_m", "position_bias_sigma_m"):
             require(getattr(self, key) >= 0.0, key, getattr(self, key), "a standard deviation >= 0")
         _positive("position_bias_tau_s", self.position_bias_tau_s)
+        _positive("yaw_bias_tau_s", self.yaw_bias_tau_s)
 
 
 @dataclass(frozen=True)
@@ -368,6 +371,11 @@ class EstimatorConfig:
     vel_east_sigma_mps: float = 0.1
     yaw_rate_sigma_deg_s: float = 0.86             # EKF3 EK3_GYRO_P_NSE = 0.015 rad/s
     yaw_sigma_deg: float = 2.0
+    # The autopilot's yaw error beyond the white yaw_sigma_deg: a bias correlated over
+    # yaw_bias_tau_s (a compass's), so its samples are fused as far from independent
+    # (EstimatorOptions.yaw_fix_sigma_rad). 0: white noise only.
+    yaw_bias_sigma_deg: float = 0.0
+    yaw_bias_tau_s: float = 600.0
     position_fusion: Literal["auto", "on", "off"] = "auto"
     position_sigma_m: float | None = 4.4          # null: from GPS_RAW_INT h_acc or HDOP
     position_sigma_per_hdop_m: float = 1.0
@@ -408,9 +416,12 @@ class EstimatorConfig:
                     "vel_north_sigma_mps", "vel_east_sigma_mps", "yaw_rate_sigma_deg_s",
                     "yaw_sigma_deg", "position_sigma_per_hdop_m"):
             _sigma(key, getattr(self, key))
+        require(self.yaw_bias_sigma_deg >= 0.0, "yaw_bias_sigma_deg", self.yaw_bias_sigma_deg,
+                "a standard deviation >= 0 (0: no bias)")
         if self.position_sigma_m is not None:
             _sigma("position_sigma_m", self.position_sigma_m)
         for key in ("reference_dt_s", "position_period_s", "max_hdop", "position_timeout_s",
+                    "yaw_bias_tau_s",
                     "arrival_tolerance_m", "monitor_window_s", "monitor_lost_after_s",
                     "degraded_radius_m", "mover_min_span_s", "mover_speed_sigmas"):
             _positive(key, getattr(self, key))
@@ -470,7 +481,9 @@ class EstimatorConfig:
                                   lost_radius_m=self.lost_radius_m),
             degraded_reaction=self.degraded_reaction, lost_reaction=self.lost_reaction,
             slow_factor=self.slow_factor, lifecycle=self.lifecycle_params(),
-            range_sigma_k_per_m=self.range_sigma_k_per_m)
+            range_sigma_k_per_m=self.range_sigma_k_per_m,
+            yaw_bias_sigma_rad=math.radians(self.yaw_bias_sigma_deg),
+            yaw_bias_tau_s=self.yaw_bias_tau_s)
 
     def mover_params(self) -> MoverParams:
         return MoverParams(strikes_to_mover=self.mover_strikes, probation_s=self.mover_probation_s,
@@ -558,6 +571,8 @@ class Scenario:
             vel_east_sigma_mps=max(velocity_sigma_mps, 1e-6),
             yaw_rate_sigma_deg_s=max(noise.yaw_rate_sigma_deg_s, 1e-6),
             yaw_sigma_deg=max(yaw_sigma_deg, 1e-6),
+            yaw_bias_sigma_deg=noise.yaw_bias_sigma_deg if copter else 0.0,
+            yaw_bias_tau_s=noise.yaw_bias_tau_s,
             position_fusion="auto" if copter else "off",
             sensor_fov_deg=self.sensor.fov_deg, sensor_max_range_m=self.sensor.max_range_m,
             # The unicycle's 2-sigma radius reaches 2.4 m at the end of 300 m legs (dense and

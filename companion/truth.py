@@ -72,6 +72,12 @@ class TruthWorld:
         # stays as it was).
         self.vel_ne_mps = self.speed_mps * np.array([math.cos(self.pose[2]), math.sin(self.pose[2])])
         self._gps_bias_m: np.ndarray | None = None
+        # The AHRS's slow yaw error (noise.yaw_bias_sigma_deg, Gauss-Markov over yaw_bias_tau_s):
+        # drawn only when it has a sigma, so scenarios without one keep their random stream.
+        self.yaw_bias_rad = 0.0
+        if scenario.noise.yaw_bias_sigma_deg > 0.0:
+            self.yaw_bias_rad = float(rng.normal(0.0,
+                                                 math.radians(scenario.noise.yaw_bias_sigma_deg)))
         self.seen_ids: set[int] = set()          # obstacles ever in the camera's view
 
     def obstacle_positions(self) -> np.ndarray:
@@ -107,7 +113,9 @@ class TruthWorld:
         mean_vel = self.vel_ne_mps + 0.5 * dv            # constant acceleration over the step
         self.vel_ne_mps = self.vel_ne_mps + dv
         max_turn = vehicle.max_turn_rate_rad_s * dt
-        turn = max(-max_turn, min(max_turn, wrap_angle(yaw_cmd_rad - self.pose[2])))
+        # ArduCopter turns by its own (AHRS) yaw: the true heading settles off by its bias
+        turn = max(-max_turn, min(max_turn, wrap_angle(yaw_cmd_rad - self.pose[2]
+                                                       - self.yaw_bias_rad)))
         self.pose = np.array([self.pose[0] + mean_vel[0] * dt, self.pose[1] + mean_vel[1] * dt,
                               wrap_angle(self.pose[2] + turn)])
         self.speed_mps = float(np.hypot(*self.vel_ne_mps))
@@ -126,10 +134,15 @@ class TruthWorld:
                 0.0, noise.position_bias_sigma_m * math.sqrt(1.0 - keep * keep), 2)
         vel = self.vel_ne_mps + rng.normal(0.0, noise.velocity_sigma_mps, 2)
         fix = self.pose[:2] + self._gps_bias_m + rng.normal(0.0, noise.position_sigma_m, 2)
+        if noise.yaw_bias_sigma_deg > 0.0:
+            keep = math.exp(-dt / noise.yaw_bias_tau_s)
+            self.yaw_bias_rad = keep * self.yaw_bias_rad + float(rng.normal(
+                0.0, math.radians(noise.yaw_bias_sigma_deg) * math.sqrt(1.0 - keep * keep)))
         return CopterOdometry(
             float(vel[0]), float(vel[1]),
             true_yaw_rate_rad_s + rng.normal(0.0, math.radians(noise.yaw_rate_sigma_deg_s)),
-            wrap_angle(self.pose[2] + rng.normal(0.0, math.radians(noise.yaw_sigma_deg))),
+            wrap_angle(self.pose[2] + self.yaw_bias_rad
+                       + rng.normal(0.0, math.radians(noise.yaw_sigma_deg))),
             (float(fix[0]), float(fix[1])))
 
     def observe_sectors(self) -> tuple[np.ndarray, np.ndarray, float]:

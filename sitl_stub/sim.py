@@ -19,6 +19,7 @@ STREAM_PHYSICS = 1
 STREAM_CAMERA = 2
 STREAM_LINK_DROP = 3
 STREAM_POSITION = 4
+STREAM_YAW_BIAS = 5
 
 
 def make_rng(seed: int, stream: int) -> np.random.Generator:
@@ -61,6 +62,22 @@ class PositionError:
         return math.hypot(self.sigma_m, self.bias_sigma_m)
 
 
+class YawBias:
+    """An AHRS's slow yaw error (compass declination, soft iron, misalignment): a first-order
+    Gauss-Markov process, drawn from its stationary sigma at the start and stepped every physics
+    step (one draw a step, whatever the sigma, so the stream does not depend on it)."""
+
+    def __init__(self, sigma_rad: float, tau_s: float, rng: np.random.Generator) -> None:
+        self.sigma_rad, self.tau_s = sigma_rad, tau_s
+        self._rng = rng
+        self.bias_rad = float(rng.normal()) * sigma_rad
+
+    def step(self, dt_s: float) -> None:
+        phi = math.exp(-dt_s / self.tau_s)
+        self.bias_rad = phi * self.bias_rad + self.sigma_rad * math.sqrt(1.0 - phi * phi) \
+            * float(self._rng.normal())
+
+
 class Simulation:
     """Steps the multicopter model on simulated time and keeps the reported odometry."""
 
@@ -80,6 +97,8 @@ class Simulation:
                                             noise.position_bias_sigma_m,
                                             noise.position_bias_tau_s,
                                             make_rng(seed, STREAM_POSITION))
+        self.yaw_bias = YawBias(noise.yaw_bias_sigma_rad, noise.yaw_bias_tau_s,
+                                make_rng(seed, STREAM_YAW_BIAS))
         self.yaw_noise_rad = self.yaw_rate_noise_rad_s = 0.0
 
     @property
@@ -102,9 +121,11 @@ class Simulation:
         vel_noise = (float(draws[2]) * noise.velocity_sigma_mps,
                      float(draws[3]) * noise.velocity_sigma_mps)
         self.position_error.step(self.dt_s)
+        # The autopilot steers by its AHRS yaw: the true heading settles off by the yaw bias.
+        ahrs_yaw = self.odometry.yaw_rad + self.yaw_bias.bias_rad
+        self.yaw_bias.step(self.dt_s)
         before = self.truth
-        self.truth = step_truth(before, demand, self.limits, self.dt_s, self.odometry.yaw_rad,
-                                climb_mps)
+        self.truth = step_truth(before, demand, self.limits, self.dt_s, ahrs_yaw, climb_mps)
         if demand.grounded:
             speed_noise = heading_noise = 0.0
             vel_noise = (0.0, 0.0)
@@ -130,8 +151,9 @@ class Simulation:
         return self.odometry.yaw_rate_rad_s + self.yaw_rate_noise_rad_s
 
     def reported_yaw_rad(self) -> float:
-        """ATTITUDE yaw: the integrated heading plus the compass-like white noise."""
-        return wrap_pi(self.odometry.yaw_rad + self.yaw_noise_rad)
+        """ATTITUDE yaw: the integrated heading plus the AHRS's slow bias (on the ground too)
+        and the compass-like white noise (in flight)."""
+        return wrap_pi(self.odometry.yaw_rad + self.yaw_bias.bias_rad + self.yaw_noise_rad)
 
     def obstacles_now(self) -> list[tuple[int, float, float, float]]:
         """[(id, north_m, east_m, radius_m)] at the current simulated time."""

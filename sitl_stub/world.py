@@ -111,6 +111,10 @@ class NoiseConfig:
     yaw_sigma_rad: white noise on the reported yaw (a compass-aided heading), on top of the
         integrated heading-change noise.
     yaw_rate_sigma_rad_s: white noise on the reported yaw rate (ATTITUDE yawspeed: a gyro).
+    yaw_bias_sigma_rad, yaw_bias_tau_s: a slow error of the reported yaw (an AHRS's compass
+        error: declination, soft iron, misalignment), a first-order Gauss-Markov process with
+        this stationary sigma and correlation time, drawn at the start of a flight; the
+        autopilot steers by the yaw it reports, so the true heading is off by the bias.
     position_sigma_m: None: no GPS (LOCAL_POSITION_NED x, y are the dead-reckoned odometry);
         else x, y = truth + a slow bias + white noise of this sigma per axis (GPS-like).
     position_bias_sigma_m, position_bias_tau_s: the bias, a first-order Gauss-Markov process
@@ -121,6 +125,8 @@ class NoiseConfig:
     velocity_sigma_mps: float = 0.0
     yaw_sigma_rad: float = 0.0
     yaw_rate_sigma_rad_s: float = 0.0
+    yaw_bias_sigma_rad: float = 0.0
+    yaw_bias_tau_s: float = 600.0
     position_sigma_m: float | None = None
     position_bias_sigma_m: float = 0.0
     position_bias_tau_s: float = 300.0
@@ -413,6 +419,8 @@ def _parse_noise(r: _Reader) -> NoiseConfig:
         velocity_sigma_mps=r.number("velocity_sigma_mps", 0.0, minimum=0),
         yaw_sigma_rad=math.radians(r.number("yaw_sigma_deg", 0.0, minimum=0)),
         yaw_rate_sigma_rad_s=math.radians(r.number("yaw_rate_sigma_deg_s", 0.0, minimum=0)),
+        yaw_bias_sigma_rad=math.radians(r.number("yaw_bias_sigma_deg", 0.0, minimum=0)),
+        yaw_bias_tau_s=r.number("yaw_bias_tau_s", 600.0, minimum=0, strict_min=True),
         position_sigma_m=(None if position_sigma is None
                           else r.number("position_sigma_m", minimum=0)),
         position_bias_sigma_m=r.number("position_bias_sigma_m", 0.0, minimum=0),

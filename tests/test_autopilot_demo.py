@@ -46,8 +46,11 @@ def test_the_filter_gets_the_autopilots_odometry_noise_and_the_scenarios_camera(
     estimator = service_config(PAPER, 10.0).estimator
     assert PAPER.estimator_config(flown_as="multicopter").yaw_sigma_deg != real.yaw_sigma_deg
     for key in ("yaw_sigma_deg", "yaw_rate_sigma_deg_s", "initial_yaw_sigma_deg",
-                "vel_north_sigma_mps", "vel_east_sigma_mps"):
+                "vel_north_sigma_mps", "vel_east_sigma_mps", "yaw_bias_sigma_deg",
+                "yaw_bias_tau_s"):
         assert getattr(estimator, key) == getattr(real, key), key
+    # ArduCopter's ATTITUDE yaw is off by a bias for the whole flight: fused as one
+    assert real.yaw_bias_sigma_deg > 0.0 and PAPER.noise.yaw_bias_sigma_deg == 0.0
     assert estimator.range_sigma_m == PAPER.sensor.range_sigma_m
     assert estimator.bearing_sigma_deg == PAPER.sensor.bearing_sigma_deg
 

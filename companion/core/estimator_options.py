@@ -30,6 +30,9 @@ class EstimatorOptions:
     ``arrival_tolerance_m``. ``lifecycle``: tentative / confirmed / deleted (core/lifecycle.py). Reactions to 'degraded' / 'lost': 'none', 'slow' (speed times
     ``slow_factor``) or 'hold'. ``range_sigma_k_per_m``: the filter's range sigma grows as
     floor + k r^2 (core/range_noise.py; the floor is SlamNoise.range_sigma_m), 0: constant.
+    ``yaw_bias_sigma_rad``, ``yaw_bias_tau_s``: the autopilot's yaw error is white
+    (``yaw_sigma_rad``) plus a slow bias (a compass's: Gauss-Markov, this sigma and correlation
+    time), so successive yaw samples are not independent (``yaw_fix_sigma_rad``).
     """
     motion_model: str = "paper"
     velocity_noise: VelocityNoise = VelocityNoise(0.1, 0.1, math.radians(0.5))
@@ -45,6 +48,34 @@ class EstimatorOptions:
     slow_factor: float = 0.5
     lifecycle: LifecycleParams = LifecycleParams()
     range_sigma_k_per_m: float = 0.0
+    yaw_bias_sigma_rad: float = 0.0
+    yaw_bias_tau_s: float = 600.0
+
+    def yaw_fix_sigma_rad(self, dt_s: float | None) -> float:
+        """The sigma to fuse one autopilot yaw sample with, ``dt_s`` after the last one (None:
+        the first), when its error is white noise plus a bias correlated over ``yaw_bias_tau_s``.
+
+        As for position fixes (README): n samples sharing one bias carry together about one
+        bias-sigma of information, so each is fused at sqrt(white^2 + bias^2 n), with n = tau /
+        dt, or fewer when the gyro makes the filter forget sooner. A random-walk yaw (gyro
+        variance q per sample, the yaw rate's Q) fused at variance r >> q settles at P = sqrt(q r)
+        with a gain of sqrt(q / r); its true error is then the bias (bias^2) plus the gyro drift
+        the gain lets through (q / 2 gain = P / 2). P = bias^2 + P / 2 gives P = 2 bias^2, so r =
+        4 bias^4 / q: n = 4 bias^2 / q. With a gyro better than its Q the true error is nearer
+        bias^2 alone (the filter errs on the cautious side); fused as white noise (n = 1) the
+        filter would claim sqrt(q) white, a fraction of the bias.
+        """
+        white, bias = self.yaw_sigma_rad, self.yaw_bias_sigma_rad
+        if bias <= 0.0:
+            return white
+        if dt_s is None or dt_s <= 0.0:
+            return math.hypot(white, bias)          # one look: off by the whole bias
+        b2 = bias * bias
+        samples = self.yaw_bias_tau_s / dt_s
+        q = (self.velocity_noise.yaw_rate_sigma_rad_s * dt_s) ** 2
+        if q > 0.0:
+            samples = min(samples, 4.0 * b2 / q)
+        return math.sqrt(white * white + b2 * max(1.0, samples))
 
     def __post_init__(self) -> None:
         if self.motion_model not in MOTION_MODELS:

@@ -227,7 +227,7 @@ class Navigator:
         rest = t_s - cursor
         self.predict_velocity(vel_north_mps, vel_east_mps, yaw_rate_rad_s, rest,
                               var_scale=1.0 if cursor == start else dt / rest)
-        self.correct_yaw(yaw_rad)
+        self.correct_yaw(yaw_rad, dt)
         self.t_s, self._yaw_rad = t_s, yaw_rad
         return reports + self._release()
 
@@ -293,9 +293,10 @@ class Navigator:
         if dt_s > 0.0:
             self._turn_rate_rad_s = abs(yaw_rate_rad_s)
 
-    def correct_yaw(self, yaw_rad: float) -> UpdateReport:
-        """The autopilot's yaw as a measurement of the yaw state; the dead reckoning takes it."""
-        report = self.slam.update_yaw(yaw_rad, self.options.yaw_sigma_rad,
+    def correct_yaw(self, yaw_rad: float, dt_s: float | None = None) -> UpdateReport:
+        """The autopilot's yaw as a measurement of the yaw state, ``dt_s`` after the last one
+        (its sigma: ``EstimatorOptions.yaw_fix_sigma_rad``); the dead reckoning takes it."""
+        report = self.slam.update_yaw(yaw_rad, self.options.yaw_fix_sigma_rad(dt_s),
                                       self.options.yaw_gate_nis)
         self.monitor.add(self.clock_s, report.nis, 1)
         self._dr_pose[2] = wrap_angle(yaw_rad)

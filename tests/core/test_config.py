@@ -63,3 +63,23 @@ def test_missing_key_and_bad_yaml(tmp_path):
     assert "not valid YAML" in error_for(tmp_path, "world: [unclosed")
     with pytest.raises(ConfigError, match="cannot read"):
         load_scenario(tmp_path / "absent.yaml")
+
+
+def test_a_scenarios_yaw_bias_reaches_the_truth_and_the_filter_of_a_multicopter(tmp_path):
+    import math
+
+    import yaml
+    data = yaml.safe_load(open("config/scenarios/copter.yaml"))
+    data["noise"].update(yaw_bias_sigma_deg=1.2, yaw_bias_tau_s=300.0)
+    del data["estimator"]            # the filter matched to the noise, the bias included
+    s = load_scenario(write(tmp_path, yaml.safe_dump(data)))
+    assert (s.noise.yaw_bias_sigma_deg, s.noise.yaw_bias_tau_s) == (1.2, 300.0)
+    est = s.estimator_config()
+    assert (est.yaw_bias_sigma_deg, est.yaw_bias_tau_s) == (1.2, 300.0)
+    options = est.options()
+    assert options.yaw_bias_sigma_rad == pytest.approx(math.radians(1.2))
+    assert options.yaw_fix_sigma_rad(0.1) > 10 * options.yaw_sigma_rad
+    assert load_scenario("config/scenarios/paper.yaml").estimator_config(
+        flown_as="multicopter").yaw_bias_sigma_deg == 0.0
+    data["noise"]["yaw_bias_tau_s"] = 0
+    assert "noise.yaw_bias_tau_s" in error_for(tmp_path, yaml.safe_dump(data))

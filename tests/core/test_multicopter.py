@@ -144,3 +144,77 @@ def test_a_multicopter_in_the_truth_flies_its_velocity_and_turns_on_its_own():
     # the velocity turns as fast as 2.5 m/s^2 allows; the yaw at 30 deg/s: 30 deg in 1 s
     assert truth.pose[2] == pytest.approx(math.radians(30.0), abs=1e-9)
     assert np.allclose(truth.vel_ne_mps, [5.0 - 2.5 / math.sqrt(2), 2.5 / math.sqrt(2)], atol=0.01)
+
+
+def test_the_truths_ahrs_yaw_carries_its_bias_and_the_vehicle_steers_by_it():
+    base = load_scenario("config/scenarios/copter.yaml")
+    noise = dataclasses.replace(base.noise, yaw_sigma_deg=0.5, yaw_bias_sigma_deg=1.5,
+                                yaw_bias_tau_s=3600.0)
+    truth = TruthWorld(dataclasses.replace(base, noise=noise), np.random.default_rng(3))
+    assert abs(math.degrees(truth.yaw_bias_rad)) > 0.5           # this seed's draw
+    errors = [truth.step_copter(np.zeros(2), 0.0).yaw_rad - truth.pose[2] for _ in range(600)]
+    assert np.mean(errors) == pytest.approx(truth.yaw_bias_rad, abs=math.radians(0.1))
+    assert truth.pose[2] == pytest.approx(-truth.yaw_bias_rad, abs=1e-3)   # turned by its AHRS
+    # without a bias sigma nothing is drawn: the random stream (and every flight) as before
+    unbiased = dataclasses.replace(base, noise=dataclasses.replace(noise, yaw_bias_sigma_deg=0.0))
+    rng = np.random.default_rng(3)
+    world = TruthWorld(unbiased, rng)
+    odo = world.step_copter(np.zeros(2), 0.0)
+    rng = np.random.default_rng(3)               # copter_odometry's draws: GPS bias, velocity
+    rng.normal(0.0, base.noise.position_bias_sigma_m, 2)
+    vel = rng.normal(0.0, base.noise.velocity_sigma_mps, 2)
+    assert odo.vel_north_mps - world.vel_ne_mps[0] == pytest.approx(float(vel[0]), abs=1e-12)
+    assert TruthWorld(unbiased, np.random.default_rng(3)).yaw_bias_rad == 0.0
+
+
+def biased_yaw_hover(options: EstimatorOptions, seed: int, steps: int = 600):
+    """Hover 60 s at 10 Hz with the true yaw 0: the autopilot's yaw is off by a bias of 1.5 deg
+    (drawn per run, constant, as ArduCopter SITL's 1.3-1.5 deg) plus 0.5 deg of white noise; the
+    gyro's yaw rate is white (0.86 deg/s). Returns the yaw NEES at every step."""
+    rng = np.random.default_rng([seed, 7])
+    bias = rng.normal(0.0, math.radians(1.5))
+    nav = Navigator(np.zeros(3), np.diag([1e-4, 1e-4, math.radians(2.0) ** 2]), NOISE,
+                    gates=AssociationGates(), params=PARAMS, goal=np.array([100.0, 0.0]),
+                    options=options)
+    nees = []
+    for step in range(steps):
+        nav.on_velocity(0.1 * step, 0.0, 0.0, bias + rng.normal(0.0, math.radians(0.5)),
+                        rng.normal(0.0, math.radians(0.86)))
+        nees.append(nav.slam.pose[2] ** 2 / nav.slam.pose_cov[2, 2])
+    return np.array(nees)
+
+
+def test_a_biased_autopilot_yaw_is_fused_as_correlated_and_the_yaw_nees_stays_near_1():
+    runs = 100
+    white = EstimatorOptions(motion_model="velocity_ned", velocity_noise=VEL_NOISE,
+                             yaw_sigma_rad=math.radians(0.5))
+    biased = dataclasses.replace(white, yaw_bias_sigma_rad=math.radians(1.5))
+    # the yaw NEES averaged over the runs and the last 50 s (the gyro's drift is slow, so single
+    # steps of a 100-run average still wander: 0.8 to 1.5 measured)
+    nees = {name: float(np.mean([biased_yaw_hover(options, seed) for seed in range(runs)],
+                                axis=0)[100:].mean())
+            for name, options in (("biased", biased), ("white", white))}
+    assert 0.6 < nees["biased"] < 1.6, nees
+    # fused as white 0.5 deg samples the filter claims about 0.2 deg of a 1.5 deg error
+    assert nees["white"] > 20.0, nees
+
+
+def test_yaw_fix_sigma_is_white_without_a_bias_and_shares_the_bias_over_the_filter_memory():
+    white = EstimatorOptions(velocity_noise=VEL_NOISE, yaw_sigma_rad=0.01)
+    assert white.yaw_fix_sigma_rad(0.1) == white.yaw_fix_sigma_rad(None) == 0.01
+    b = 0.03
+    biased = dataclasses.replace(white, yaw_bias_sigma_rad=b, yaw_bias_tau_s=5.0)
+    assert biased.yaw_fix_sigma_rad(None) == pytest.approx(math.hypot(0.01, b))
+    # a bias decorrelated within 5 s, shorter than the filter's memory: 50 samples share it
+    assert biased.yaw_fix_sigma_rad(0.1) == pytest.approx(math.sqrt(1e-4 + b * b * 50))
+    # a bias of 600 s: the gyro makes the filter forget sooner; a scalar random walk fused with
+    # that sigma settles at about twice the bias's variance (the docstring's P = 2 bias^2)
+    slow = dataclasses.replace(biased, yaw_bias_tau_s=600.0)
+    q = (VEL_NOISE.yaw_rate_sigma_rad_s * 0.1) ** 2
+    r = slow.yaw_fix_sigma_rad(0.1) ** 2
+    assert r == pytest.approx(1e-4 + 4 * b ** 4 / q) and r < 1e-4 + b * b * 6000
+    p = 0.0
+    for _ in range(20_000):
+        p += q
+        p = p * r / (p + r)
+    assert p + q == pytest.approx(2 * b * b, rel=0.05)

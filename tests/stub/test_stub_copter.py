@@ -10,7 +10,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from sitl_stub import streams
 from sitl_stub.autopilot import Autopilot
 from sitl_stub.params import ParamTable
-from sitl_stub.sim import PositionError, Simulation
+from sitl_stub.sim import PositionError, Simulation, YawBias
 from sitl_stub.world import parse_scenario
 
 from .support import PAPER
@@ -25,11 +25,11 @@ def landed_state(rig):
                                   rig.sim.scenario.world.origin).landed_state
 
 
-def gps_rig(**noise):
+def gps_rig(seed=4, **noise):
     data = yaml.safe_load(PAPER.read_text())
     data["noise"].update(noise)
     rig = Rig()
-    rig.sim = Simulation(parse_scenario(data, "gps.yaml"), seed=4)
+    rig.sim = Simulation(parse_scenario(data, "gps.yaml"), seed=seed)
     rig.ap = Autopilot(rig.sim, ParamTable())
     return rig
 
@@ -237,6 +237,44 @@ def test_position_bias_is_a_slow_gauss_markov_process():
     assert np.std(b) == pytest.approx(1.0, rel=0.2)
     lag_10s = np.mean([np.corrcoef(b[:-100, k], b[100:, k])[0, 1] for k in range(2)])
     assert lag_10s == pytest.approx(math.exp(-0.1), abs=0.05)
+
+
+def test_attitude_yaw_carries_a_slow_ahrs_bias_that_the_vehicle_steers_by():
+    # ArduCopter 4.6 SITL's ATTITUDE yaw stays 1.3-1.5 deg off SIMSTATE for a whole flight: a
+    # bias, not white noise. The stub's: the bias (seeded, per flight) plus white noise, and the
+    # vehicle turns to a commanded yaw by its AHRS, so its true heading is off by the bias.
+    rig = gps_rig(seed=2, position_sigma_m=0.3, yaw_sigma_deg=0.5, yaw_bias_sigma_deg=1.5,
+                  yaw_bias_tau_s=3600.0, heading_change_sigma_deg=0.0)   # no gyro drift
+    bias = rig.sim.yaw_bias.bias_rad
+    assert abs(math.degrees(bias)) > 1.0                   # this seed's draw: not a tiny one
+    rig.airborne()
+    errors, truth = [], []
+    for _ in range(600):                    # 60 s north at 5 m/s, nose commanded north
+        rig.target(vx=5.0, vy=0.0, yaw=0.0)
+        rig.run(0.1)
+        errors.append(rig.sim.reported_yaw_rad() - rig.sim.truth.yaw_rad)
+        truth.append(rig.sim.truth.yaw_rad)
+    err = np.array(errors)
+    assert np.mean(err) == pytest.approx(rig.sim.yaw_bias.bias_rad, abs=math.radians(0.3))
+    assert abs(np.mean(err)) > 10 * np.std(err) / math.sqrt(60)     # not zero-mean white noise
+    assert math.degrees(np.std(np.diff(err))) / math.sqrt(2) == pytest.approx(0.5, rel=0.15)
+    assert np.mean(truth[-100:]) == pytest.approx(-np.mean(err[-100:]), abs=math.radians(0.2))
+
+
+def test_yaw_bias_is_off_by_default_and_a_gauss_markov_process_across_seeds():
+    rig = gps_rig(position_sigma_m=0.3)
+    assert rig.sim.yaw_bias.bias_rad == 0.0                # paper.yaml and friends: unchanged
+    draws = [YawBias(math.radians(1.5), 600.0, np.random.default_rng([s, 5])).bias_rad
+             for s in range(400)]
+    assert math.degrees(np.std(draws)) == pytest.approx(1.5, rel=0.12)
+    bias = YawBias(1.0, 60.0, np.random.default_rng(3))
+    b = []
+    for _ in range(60_000):                   # 6000 s = 100 correlation times
+        bias.step(0.1)
+        b.append(bias.bias_rad)
+    b = np.array(b)
+    assert np.std(b) == pytest.approx(1.0, rel=0.2)
+    assert np.corrcoef(b[:-100], b[100:])[0, 1] == pytest.approx(math.exp(-10 / 60), abs=0.06)
 
 
 def test_home_and_gps_global_origin_on_request():
