@@ -576,6 +576,14 @@ class Navigator:
         detected = []
         crab = self._crab_speed()
         for oid, young in list(self._young.items()):
+            # unseen for as long as a track coasts, and its sightings showed motion: it is not
+            # where it was seen, and no longer where they extrapolate to; forgotten as a track is
+            # (movers.prune), not left to be flown round for ever
+            if self.clock_s - young.times[-1] > params.coast_s \
+                    and self._young_velocity(young, crab) is not None:
+                self._forget_young(oid)
+                detected.append(UpdateReport("expired", None, None, None, oid))
+                continue
             # established only once watched over min_span_s (or the whole probation, if
             # shorter): a mover seen for half a second and then out of view must not be taken
             # for a static obstacle
@@ -606,6 +614,13 @@ class Navigator:
                 self._demote(oid, young.last_obs, velocity=(velocity, sigma))
                 detected.append(UpdateReport("mover_detected", None, None, None, oid))
         return detected
+
+    def _forget_young(self, oid: int) -> None:
+        """Marginalise the landmark on probation ``oid`` out of the map, without a track."""
+        self._strikes.pop(oid, None)
+        self._young.pop(oid, None)
+        self.lifecycle.forget(oid)
+        self.slam.remove_landmark(self.slam.landmark_ids().index(oid))
 
     def _track_sigmas(self, young: _Young) -> np.ndarray:
         """Each dead-reckoned point's sigma for the straight-track test: its own, plus the dead
@@ -669,27 +684,35 @@ class Navigator:
 
     def _young_evidence(self) -> dict:
         """The landmarks on probation whose sightings so far already show motion, by key:
-        (velocity, its sigma, the sightings' mean time). The conviction's speed test
-        (speed_sigmas standard errors) on at least ``young_min_sightings`` of them; with the
-        default 2, a crossing mover seen in two frames at the edge of the view, still tentative,
-        shows its velocity (two points 0.2 s apart, each 0.1 m: +-0.74 m/s, so 3.7 m/s at 5
-        sigma). Tentative or not: a landmark seen too briefly to be confirmed is kept out of
-        the decision as a possible false alarm, but a static false alarm does not move and two
-        false alarms rarely fall within a mover's reach of each other."""
+        (velocity, its sigma, the sightings' mean time); see ``_young_velocity``."""
         crab = self._crab_speed()
         found = {}
         for key, young in self._young.items():
-            if len(young.times) < self.mover_params.young_min_sightings \
-                    or young.times[-1] - young.times[0] <= SAME_TIME_TOLERANCE_S:
-                continue
-            velocity, sigma = apparent_velocity(np.array(young.times), np.array(young.points),
-                                                max(young.sigmas), self._dr_speed_sigma_mps(),
-                                                self.slam.noise.reference_dt_s)
-            speed = float(np.hypot(*velocity)) - crab
-            if speed > self.mover_params.speed_threshold_mps \
-                    and speed > self.mover_params.speed_sigmas * sigma:
-                found[key] = (velocity, sigma, float(np.mean(young.times)))
+            shown = self._young_velocity(young, crab)
+            if shown is not None:
+                found[key] = shown
         return found
+
+    def _young_velocity(self, young: _Young, crab: float) -> tuple | None:
+        """(velocity, its sigma, the sightings' mean time) if a landmark on probation's
+        sightings already show motion, else None. The conviction's speed test (speed_sigmas
+        standard errors) on at least ``young_min_sightings`` of them; with the default 2, a
+        crossing mover seen in two frames at the edge of the view, still tentative, shows its
+        velocity (two points 0.2 s apart, each 0.1 m: +-0.74 m/s, so 3.7 m/s at 5 sigma).
+        Tentative or not: a landmark seen too briefly to be confirmed is kept out of the
+        decision as a possible false alarm, but a static false alarm does not move and two
+        false alarms rarely fall within a mover's reach of each other."""
+        if len(young.times) < self.mover_params.young_min_sightings \
+                or young.times[-1] - young.times[0] <= SAME_TIME_TOLERANCE_S:
+            return None
+        velocity, sigma = apparent_velocity(np.array(young.times), np.array(young.points),
+                                            max(young.sigmas), self._dr_speed_sigma_mps(),
+                                            self.slam.noise.reference_dt_s)
+        speed = float(np.hypot(*velocity)) - crab
+        if speed > self.mover_params.speed_threshold_mps \
+                and speed > self.mover_params.speed_sigmas * sigma:
+            return velocity, sigma, float(np.mean(young.times))
+        return None
 
     def _young_motion(self, obstacles: np.ndarray, velocities: np.ndarray | None,
                       growth: np.ndarray | None) -> tuple[np.ndarray, np.ndarray | None,

@@ -2,7 +2,8 @@
 vehicle turns away is still tentative (3 sightings confirm a landmark). Its two sightings already
 show its velocity (navigator._young_evidence), so the velocity choice flies round it as a mover
 while it is out of view; with a third sighting required (the rule off) it is never in the
-decision and the vehicle flies into it."""
+decision and the vehicle flies into it. A landmark on probation flown round as a mover and then
+unseen for as long as a track coasts is forgotten as the track would be."""
 import math
 
 import numpy as np
@@ -98,3 +99,26 @@ def test_young_min_sightings_is_checked():
         EstimatorConfig(range_sigma_m=0.1, bearing_sigma_deg=0.01, mover_young_min_sightings=1)
     config = EstimatorConfig(range_sigma_m=0.1, bearing_sigma_deg=0.01, mover_young_min_sightings=3)
     assert config.mover_params().young_min_sightings == 3
+
+
+def test_a_young_mover_unseen_for_as_long_as_a_track_coasts_is_forgotten():
+    """Seen in three frames (confirmed, still on probation), then never again: flown round as a
+    mover for coast_s, then forgotten as a coasting track is; a post seen as often stays."""
+    nav = Navigator(np.zeros(3), np.eye(3) * 1e-8, NOISE, AssociationGates(),
+                    GuidanceParams(cruise_speed_mps=0.0, safety_distance_m=D, horizon_s=4.0,
+                                   eta=1.25, goal_radius_m=2.0),
+                    np.array([120.0, 0.0]), "union",
+                    UnionParams(fov_rad=math.radians(90.0), sensor_range_m=40.0), limits=LIMITS)
+    mover0, velocity, post = np.array([30.0, -15.0]), np.array([-1.0, 4.0]), np.array([35.0, 12.0])
+    coast = MoverParams().coast_s
+    for step in range(1, int((coast + 2.0) / DT)):
+        t = step * DT
+        nav.predict(0.0, 0.0, DT)
+        if step % 2 == 0:
+            frame = [] if step > 6 else [Observation(*observe(np.zeros(3), mover0 + velocity * t), 1),
+                                         Observation(*observe(np.zeros(3), post), 2)]
+            nav.observe(frame)
+        if step == int((coast - 1.0) / DT):
+            assert 1 in nav._young_evidence() and 1 in nav.slam.landmark_ids()
+    assert nav.slam.landmark_ids() == [2]
+    assert nav._young_evidence() == {}
