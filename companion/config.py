@@ -398,6 +398,7 @@ class EstimatorConfig:
     mover_speed_threshold_mps: float = MoverParams().speed_threshold_mps
     mover_speed_sigmas: float = MoverParams().speed_sigmas
     mover_strikes: int = MoverParams().strikes_to_mover
+    mover_young_min_sightings: int = MoverParams().young_min_sightings
     # Landmark lifecycle (core/lifecycle.py gives the reasons for the defaults): confirmed after
     # confirm_hits detections in its first confirm_window chances, deleted after delete_misses
     # chances in a row unseen. A chance needs the camera's view: sensor_fov_deg and
@@ -444,6 +445,8 @@ class EstimatorConfig:
         require(self.mover_speed_threshold_mps >= 0.0, "mover_speed_threshold_mps",
                 self.mover_speed_threshold_mps, "a speed >= 0")
         require(self.mover_strikes >= 1, "mover_strikes", self.mover_strikes, "an integer >= 1")
+        require(self.mover_young_min_sightings >= 2, "mover_young_min_sightings",
+                self.mover_young_min_sightings, "an integer >= 2 (a velocity needs two points)")
         require(self.confirm_hits >= 1, "confirm_hits", self.confirm_hits, "an integer >= 1")
         require(self.confirm_window >= self.confirm_hits, "confirm_window", self.confirm_window,
                 f"an integer >= confirm_hits ({self.confirm_hits})")
@@ -489,7 +492,8 @@ class EstimatorConfig:
         return MoverParams(strikes_to_mover=self.mover_strikes, probation_s=self.mover_probation_s,
                            min_span_s=self.mover_min_span_s,
                            speed_threshold_mps=self.mover_speed_threshold_mps,
-                           speed_sigmas=self.mover_speed_sigmas)
+                           speed_sigmas=self.mover_speed_sigmas,
+                           young_min_sightings=self.mover_young_min_sightings)
 
     def slam_noise(self) -> SlamNoise:
         return SlamNoise(self.speed_sigma_mps, math.radians(self.heading_change_sigma_deg),

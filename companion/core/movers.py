@@ -29,6 +29,9 @@ class MoverParams:
     min_span_s: float = 1.0              # motion is judged over at least this much history
     speed_threshold_mps: float = 0.15    # slower than this counts as static
     speed_sigmas: float = 5.0            # and the speed must exceed this many standard errors
+    young_min_sightings: int = 2         # a landmark on probation (tentative or not) whose this
+                                         # many sightings already show motion is flown around as a
+                                         # mover (navigator._young_evidence)
 
 
 @dataclass(frozen=True)

@@ -45,8 +45,6 @@ NO_LOOK_MODES = ("arrived", "arrival_uncertain")
 MAX_PENDING_FRAMES = 8
 SPREAD_MIN_UPDATES = 5         # a track's position sigma widens its safety distance once this
                                # many sightings confirm it (one second in view at 5 Hz)
-YOUNG_MIN_SPAN_S = 0.3         # a landmark on probation whose sightings span this long may be
-                               # flown around as a mover (navigator._young_motion)
 
 
 @dataclass(frozen=True)
@@ -103,6 +101,7 @@ class Navigator:
         self.watching: int | tuple | None = None
         self._young_movers: list[tuple] = []  # (key, position, velocity) of those, this decision
         self._young_spread: np.ndarray | None = None   # their extrapolation's sigma, m (by row)
+        self._young_found: dict = {}            # _young_evidence of this decision, by key
         self._last_heading: float | None = None
         self._side = 0
         self.commitment = Commitment()  # the velocity choice's side, kept by progress
@@ -578,6 +577,14 @@ class Navigator:
         detected = []
         crab = self._crab_speed()
         for oid, young in list(self._young.items()):
+            # unseen for as long as a track coasts, and its sightings showed motion: it is not
+            # where it was seen, and no longer where they extrapolate to; forgotten as a track is
+            # (movers.prune), not left to be flown round for ever
+            if self.clock_s - young.times[-1] > params.coast_s \
+                    and self._young_velocity(young, crab) is not None:
+                self._forget_young(oid)
+                detected.append(UpdateReport("expired", None, None, None, oid))
+                continue
             # established only once watched over min_span_s (or the whole probation, if
             # shorter): a mover seen for half a second and then out of view must not be taken
             # for a static obstacle
@@ -608,6 +615,13 @@ class Navigator:
                 self._demote(oid, young.last_obs, velocity=(velocity, sigma))
                 detected.append(UpdateReport("mover_detected", None, None, None, oid))
         return detected
+
+    def _forget_young(self, oid: int) -> None:
+        """Marginalise the landmark on probation ``oid`` out of the map, without a track."""
+        self._strikes.pop(oid, None)
+        self._young.pop(oid, None)
+        self.lifecycle.forget(oid)
+        self.slam.remove_landmark(self.slam.landmark_ids().index(oid))
 
     def _track_sigmas(self, young: _Young) -> np.ndarray:
         """Each dead-reckoned point's sigma for the straight-track test: its own, plus the dead
@@ -640,17 +654,22 @@ class Navigator:
         nis = self.movers.update(track_id, self.clock_s, point, cov)
         return UpdateReport("mover", None, None, nis, obs.obstacle_id)
 
-    def obstacles(self) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None, list]:
+    def obstacles(self, young_movers: bool = False
+                  ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None, list]:
         """Everything guidance must avoid: positions (n,2); velocities (n,2), or None when all
         are static; relative-position covariances (n,2,2), or None when the safety distance is
-        not inflated; and the movers, whose rows follow the landmarks'."""
+        not inflated; and the movers, whose rows follow the landmarks'. ``young_movers`` (the
+        velocity choice): the landmarks on probation whose sightings already show motion
+        (``_young_evidence``) are kept even while tentative, for ``_young_motion``."""
         slam = self.slam
         landmarks = slam.landmarks()
         inflate = self.params.inflation_sigmas > 0
         rel_covs = slam.relative_covs() if inflate else None
         keys = slam.landmark_ids()
+        self._young_found = self._young_evidence()
         if not self.lifecycle.params.tentative_in_guidance:
-            keep = [i for i, key in enumerate(keys) if not self.lifecycle.is_tentative(key)]
+            keep = [i for i, key in enumerate(keys) if not self.lifecycle.is_tentative(key)
+                    or (young_movers and key in self._young_found)]
             landmarks, keys = landmarks[keep], [keys[i] for i in keep]
             rel_covs = rel_covs[keep] if rel_covs is not None else None
         self._guidance_keys = keys
@@ -664,29 +683,49 @@ class Navigator:
             rel_covs = np.concatenate([rel_covs, [m.position_cov + pose_cov for m in movers]])
         return positions, velocities, rel_covs, movers
 
+    def _young_evidence(self) -> dict:
+        """The landmarks on probation whose sightings so far already show motion, by key:
+        (velocity, its sigma, the sightings' mean time); see ``_young_velocity``."""
+        crab = self._crab_speed()
+        found = {}
+        for key, young in self._young.items():
+            shown = self._young_velocity(young, crab)
+            if shown is not None:
+                found[key] = shown
+        return found
+
+    def _young_velocity(self, young: _Young, crab: float) -> tuple | None:
+        """(velocity, its sigma, the sightings' mean time) if a landmark on probation's
+        sightings already show motion, else None. The conviction's speed test (speed_sigmas
+        standard errors) on at least ``young_min_sightings`` of them; with the default 2, a
+        crossing mover seen in two frames at the edge of the view, still tentative, shows its
+        velocity (two points 0.2 s apart, each 0.1 m: +-0.74 m/s, so 3.7 m/s at 5 sigma).
+        Tentative or not: a landmark seen too briefly to be confirmed is kept out of the
+        decision as a possible false alarm, but a static false alarm does not move and two
+        false alarms rarely fall within a mover's reach of each other."""
+        if len(young.times) < self.mover_params.young_min_sightings \
+                or young.times[-1] - young.times[0] <= SAME_TIME_TOLERANCE_S:
+            return None
+        velocity, sigma = apparent_velocity(np.array(young.times), np.array(young.points),
+                                            max(young.sigmas), self._dr_speed_sigma_mps(),
+                                            self.slam.noise.reference_dt_s)
+        speed = float(np.hypot(*velocity)) - crab
+        if speed > self.mover_params.speed_threshold_mps \
+                and speed > self.mover_params.speed_sigmas * sigma:
+            return velocity, sigma, float(np.mean(young.times))
+        return None
+
     def _young_motion(self, obstacles: np.ndarray, velocities: np.ndarray | None,
                       growth: np.ndarray | None) -> tuple[np.ndarray, np.ndarray | None,
                                                           np.ndarray | None]:
         """Guidance's view of the landmarks still on probation: one whose sightings so far
-        already show motion (the conviction's test, speed_sigmas standard errors, before its
-        min_span_s) is flown around as a mover at its apparent velocity, its radius growing by
-        that velocity's uncertainty, while the map keeps it as a landmark until it is judged.
-        A crossing mover in view for half a second, then out of it, stays in the decision where
-        it goes, not where it was seen. (The velocity choice only: rows as ``obstacles()``.)"""
-        rows = {key: row for row, key in enumerate(self._guidance_keys) if key in self._young}
-        crab = self._crab_speed()
-        found = []
-        for key, row in rows.items():
-            young = self._young[key]
-            if len(young.times) < 3 or young.times[-1] - young.times[0] < YOUNG_MIN_SPAN_S:
-                continue
-            velocity, sigma = apparent_velocity(np.array(young.times), np.array(young.points),
-                                                max(young.sigmas), self._dr_speed_sigma_mps(),
-                                                self.slam.noise.reference_dt_s)
-            speed = float(np.hypot(*velocity)) - crab
-            if speed > self.mover_params.speed_threshold_mps \
-                    and speed > self.mover_params.speed_sigmas * sigma:
-                found.append((row, velocity, sigma, float(np.mean(young.times))))
+        already show motion (``_young_evidence``, before its min_span_s) is flown around as a
+        mover at its apparent velocity, its radius growing by that velocity's uncertainty,
+        while the map keeps it as a landmark until it is judged. A crossing mover in view for
+        half a second, then out of it, stays in the decision where it goes, not where it was
+        seen. (The velocity choice only: rows as ``obstacles()``'s, just before.)"""
+        found = [(row, *self._young_found[key]) for row, key in enumerate(self._guidance_keys)
+                 if key in self._young_found]
         self._young_movers = []
         self._young_spread = None
         if not found:
@@ -778,7 +817,8 @@ class Navigator:
     def decide(self, t_s: float) -> tuple[GuidanceCommand, UrgencyChange | None]:
         """Guidance on the current estimate, and the urgency change it implies, if any."""
         pose = self._flight_pose(self.slam.pose)
-        obstacles, velocities, rel_covs, movers = self.obstacles()
+        young_movers = self.strategy == "union" and self.limits is not None
+        obstacles, velocities, rel_covs, movers = self.obstacles(young_movers)
         self._young_movers = []
         if self.strategy == "apf":
             command = guide_apf(pose, self.goal, obstacles, self.params)
