@@ -306,6 +306,9 @@ class AvoidanceConfig:
     gap_margin_m: float | None = None     # union in simulate: fly gaps whose circles leave this (None: never)
     look_at_threats: bool = False         # a multicopter's nose toward a tracked mover out of view
                                           # (core/look_at.py); the velocity stays the choice's
+    flank_scan_deg: float | None = None   # union with limits: swing the heading to look this far
+                                          # beyond the view's edges (core/flank_scan.py; None: off)
+    flank_scan_period_s: float = 4.0      # ... each flank once within this
 
     def __post_init__(self) -> None:
         _positive("safety_distance_m", self.safety_distance_m)
@@ -313,6 +316,10 @@ class AvoidanceConfig:
         require(self.hysteresis >= 0.0, "hysteresis", self.hysteresis, "a weight >= 0")
         if self.gap_margin_m is not None:
             require(self.gap_margin_m >= 0.0, "gap_margin_m", self.gap_margin_m, "a margin >= 0 m")
+        if self.flank_scan_deg is not None:
+            require(0.0 < self.flank_scan_deg < 90.0, "flank_scan_deg", self.flank_scan_deg,
+                    "an angle in (0, 90) degrees")
+        _positive("flank_scan_period_s", self.flank_scan_period_s)
         if self.camera_fov_deg is not None:
             require(0.0 < self.camera_fov_deg <= 360.0, "camera_fov_deg", self.camera_fov_deg,
                     "a field of view in (0, 360]")
@@ -328,7 +335,10 @@ class AvoidanceConfig:
     def union_params(self, sensor_fov_rad: float = math.radians(90.0)) -> UnionParams:
         fov = math.radians(self.camera_fov_deg) if self.camera_fov_deg is not None else sensor_fov_rad
         return UnionParams(lookahead_s=self.lookahead_s, hysteresis=self.hysteresis, fov_rad=fov,
-                           gap_margin_m=self.gap_margin_m)
+                           gap_margin_m=self.gap_margin_m,
+                           flank_scan_rad=None if self.flank_scan_deg is None
+                           else math.radians(self.flank_scan_deg),
+                           flank_scan_period_s=self.flank_scan_period_s)
 
     def guidance_params(self, cruise_speed_mps: float, goal_radius_m: float) -> GuidanceParams:
         return GuidanceParams(

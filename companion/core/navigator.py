@@ -16,6 +16,7 @@ from companion.core.blobs import SurfacePoint
 from companion.core.commitment import Commitment
 from companion.core.seen_space import SeenSpace
 from companion.core.consistency import Consistency, ConsistencyMonitor
+from companion.core.flank_scan import FlankScan, FlankScanParams
 from companion.core.ekf_slam import AssociationGates, EkfSlam, Observation, SlamNoise, UpdateReport
 from companion.core.estimator_options import EstimatorOptions, moderate
 from companion.core.geometry import move, move_velocity, place, wrap_angle
@@ -108,6 +109,11 @@ class Navigator:
         # what the camera has looked at (velocity choice with a camera range only)
         self.seen = SeenSpace(union.fov_rad, union.sensor_range_m) \
             if limits is not None and union.sensor_range_m is not None else None
+        # a fixed camera's look beyond the view's edges (velocity choice; off unless configured)
+        self.scan = FlankScan(FlankScanParams(union.fov_rad, union.flank_scan_rad,
+                                              union.flank_scan_period_s)) \
+            if limits is not None and union.flank_scan_rad is not None else None
+        self._looked: list = []         # (base heading, look heading) of this decision
         self._urgent: tuple | None = None
         self.clock_s = 0.0                     # the filter's time: odometry time, or summed dt
         self.movers = MoverTracker(mover_params)
@@ -330,6 +336,8 @@ class Navigator:
         reports = []
         if self.seen is not None:
             self.seen.mark(self.slam.pose)
+        if self.scan is not None:
+            self.scan.mark(self.clock_s, float(self.slam.pose[2]))
         self._frame_hits, self._frame_near, self._frame_added = set(), set(), set()
         noise = self.slam.noise
         observations = with_range_model(observations, noise.range_sigma_m,
@@ -814,6 +822,13 @@ class Navigator:
         self.watching = candidates[watch.index][0]
         return replace(command, yaw_rad=watch.bearing_rad)
 
+    def _look_for(self, heading: float) -> float | None:
+        """The flank scan's heading instead of the chosen ``heading`` (flank_scan.py), if any."""
+        swing = self.scan.look(self.clock_s, heading)
+        if swing is not None:
+            self._looked.append((heading, swing))
+        return swing
+
     def decide(self, t_s: float) -> tuple[GuidanceCommand, UrgencyChange | None]:
         """Guidance on the current estimate, and the urgency change it implies, if any."""
         pose = self._flight_pose(self.slam.pose)
@@ -833,13 +848,17 @@ class Navigator:
             command = guide_union(pose, self.goal, obstacles, rel_covs, self.params, self.union,
                                   self._last_heading, self.commitment.side if motion is not None
                                   else self._side, velocities, motion, growth, reach or None,
-                                  self.seen, self._spread(movers, len(obstacles), motion))
+                                  self.seen, self._spread(movers, len(obstacles), motion),
+                                  self._look_for if self.scan is not None else None)
             self._side = command.side
             if motion is not None and command.mode != "arrived":
                 self.commitment = self.commitment.after(command.side, goal_distance)
         else:
             command = guide_cone(pose, self.goal, obstacles, rel_covs, self.params, t_s, velocities)
         self._last_heading = command.heading_rad
+        if self._looked:
+            self._last_heading = self._looked[-1][0]     # the choice's, not a look's
+        self._looked = []
         command = self._watch(self._moderate(command), movers)
         key = self._key(command.urgent_index, movers)
         change = None

@@ -48,6 +48,8 @@ class UnionParams:
     perception_delay_s: float = 0.0       # ...counting the time a new obstacle stays tentative
     gap_margin_m: float | None = None  # velocity choice: fly through gaps whose safety circles
                                       # leave this much between them (None: never)
+    flank_scan_rad: float | None = None   # velocity choice: look this far beyond the view's
+    flank_scan_period_s: float = 4.0      # edges, each side within the period (flank_scan.py)
 
 
 def turn_speed_factor(heading_rad: float, desired_rad: float, fov_rad: float) -> float:
@@ -138,7 +140,7 @@ def guide_union(pose: np.ndarray, goal: np.ndarray, obstacles: np.ndarray,
                 velocities: np.ndarray | None = None, motion: Motion | None = None,
                 growth_mps: np.ndarray | None = None,
                 clear_reach_m: float | None = None, seen=None,
-                spread_m: np.ndarray | None = None) -> GuidanceCommand:
+                spread_m: np.ndarray | None = None, look=None) -> GuidanceCommand:
     """Pick a speed and heading outside every relevant cone; see the module docstring.
 
     With ``motion`` (the vehicle's limits and velocity now), the choice is velocity_choice's:
@@ -153,7 +155,7 @@ def guide_union(pose: np.ndarray, goal: np.ndarray, obstacles: np.ndarray,
     if motion is not None:
         return _guide_flyable(pose, goal, obstacles, rel_covs, params, union,
                               previous_heading_rad, side, velocities, motion, growth_mps,
-                              clear_reach_m, seen, spread_m)
+                              clear_reach_m, seen, spread_m, look)
     position = pose[:2]
     goal_distance, goal_heading = toward_goal(pose, goal)
     if goal_distance <= params.goal_radius_m:
@@ -304,8 +306,8 @@ def _guide_flyable(pose: np.ndarray, goal: np.ndarray, obstacles: np.ndarray,
                    previous_heading_rad: float | None, side: int, velocities: np.ndarray | None,
                    motion: Motion, growth_mps: np.ndarray | None,
                    clear_reach_m: float | None = None, seen=None,
-                   spread_m: np.ndarray | None = None) -> GuidanceCommand:
-    from companion.core.velocity_choice import choose_velocity
+                   spread_m: np.ndarray | None = None, look=None) -> GuidanceCommand:
+    from companion.core.velocity_choice import choose_velocity, look_flyable
     goal_distance, goal_heading = toward_goal(pose, goal)
     if goal_distance <= params.goal_radius_m:
         return GuidanceCommand(0.0, pose[2], "arrived")
@@ -330,11 +332,16 @@ def _guide_flyable(pose: np.ndarray, goal: np.ndarray, obstacles: np.ndarray,
     horizon = union.lookahead_s + top / motion.max_accel_mps2
     near = np.flatnonzero(gaps < reach + speeds * horizon + np.minimum(grow * horizon, MAX_GROWTH_M))
     if near.size == 0:
-        return GuidanceCommand(cruise * turn_speed_factor(pose[2], goal_heading, union.fov_rad),
-                               goal_heading, "goal")
+        heading = goal_heading
+        in_view = abs(wrap_angle(goal_heading - pose[2])) <= 0.5 * union.fov_rad
+        swing = None if look is None or not in_view else look(goal_heading)
+        if swing is not None and look_flyable(pose, swing, cruise, params, union, motion, seen):
+            heading = swing
+        return GuidanceCommand(cruise * turn_speed_factor(pose[2], heading, union.fov_rad),
+                               heading, "goal")
     moving = velocities is not None and bool(np.any(velocities[near]))
     return choose_velocity(pose, goal_heading, goal_distance, cruise, reference, side,
                            obstacles[near], radii[near], near, params, union,
                            velocities[near] if moving else None, motion,
                            None if growth_mps is None or not moving else growth_mps[near],
-                           clear_reach_m, seen)
+                           clear_reach_m, seen, look)

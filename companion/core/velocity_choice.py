@@ -19,6 +19,7 @@ whose closest approach comes first (time to closest approach ranks them).
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 
@@ -32,6 +33,7 @@ from companion.core.union import (Geometry, UnionParams, blocking, candidate_hea
 SPEED_FRACTIONS = (1.0, 0.75, 0.5, 0.25)
 KEEP_TOLERANCE_M = 0.25    # the previous heading stays reachable down to d minus this: a choice
                            # on the edge of reachable must not flip every decision
+LOOK_PARTS = (1.0, 0.75, 0.5)  # a flank look's swing, then parts of it (flank_scan.py)
 FIRST_CHUNK = 32           # candidates rolled out before the rest (see _first_passing)
 GRID = np.linspace(-math.pi, math.pi, 72, endpoint=False)     # 5 degrees, beside the cone edges
 
@@ -42,7 +44,7 @@ def choose_velocity(pose: np.ndarray, goal_heading: float, goal_distance: float,
                     velocities: np.ndarray | None, motion: Motion,
                     growth_mps: np.ndarray | None = None,
                     clear_reach_m: float | None = None,
-                    seen: SeenSpace | None = None) -> GuidanceCommand:
+                    seen: SeenSpace | None = None, look=None) -> GuidanceCommand:
     """A speed and heading outside every cone whose path is flyable; see the module docstring.
 
     obstacles (n,2), radii (n,), velocities (n,2) or None, growth_mps (n,) or None: the near
@@ -53,6 +55,8 @@ def choose_velocity(pose: np.ndarray, goal_heading: float, goal_distance: float,
     for ``union.perception_delay_s`` and then braked, it keeps d from space never seen (only
     where that stopping distance exceeds d: at 5 m/s, 1 s and 2.5 m/s^2 it is 10 m, and an
     obstacle that shows up is never nearer than it before the vehicle has stopped).
+    ``look`` (flank_scan.py): a function of the chosen heading giving the heading to fly instead
+    to look at a flank, or None; taken only if free, committed and reachable at the same speed.
     """
     position = pose[:2]
     yaw = float(pose[2])
@@ -95,6 +99,39 @@ def choose_velocity(pose: np.ndarray, goal_heading: float, goal_distance: float,
         margin = clearance(rolled, obstacles, radii, velocities, growth_mps, position)
         return margin + np.where(indices == 1, KEEP_TOLERANCE_M, 0.0)
 
+    def look_ok(heading: float, speed: float) -> bool:
+        """The look heading is free of every cone, committed and reachable at ``speed``."""
+        h = np.array([wrap_angles(np.array([heading]))[0]])
+        blocked = blocking(h, position, obstacles, radii, params.eta,
+                           min(max(speed, motion.speed_mps) * union.lookahead_s, goal_distance),
+                           speed, velocities, union.lookahead_s, geometry).any()
+        if blocked or _far_blocked(h, goal_heading, position, obstacles, radii, velocities,
+                                   params.eta, clear_reach_m)[0]:
+            return False
+        rolled = fly_out(position, motion, h, np.array([speed]), union.lookahead_s,
+                         union.fov_rad)
+        margin = clearance(rolled, obstacles, radii, velocities, growth_mps, position)[0]
+        if seen is not None and _stopping_m(speed, motion, union) > params.safety_distance_m:
+            margin = min(margin, _seen_margin(seen, position, motion, h, speed, union,
+                                              params.safety_distance_m)[0])
+        return bool(margin >= 0.0)
+
+    def looked(chosen: GuidanceCommand, speed: float) -> GuidanceCommand:
+        """``chosen``, or the flank scan's look instead: only cruising on a heading in view."""
+        if look is None or speed <= 0.0 or \
+                abs(wrap_angles(np.array([chosen.heading_rad - yaw]))[0]) > 0.5 * union.fov_rad:
+            return chosen
+        swing = look(chosen.heading_rad)
+        if swing is None:
+            return chosen
+        turn = float(wrap_angles(np.array([swing - chosen.heading_rad]))[0])
+        for part in LOOK_PARTS:       # a post beside the way may leave room for part of a look
+            heading = float(wrap_angles(np.array([chosen.heading_rad + part * turn]))[0])
+            if look_ok(heading, speed):
+                return replace(chosen, heading_rad=heading,
+                               speed_mps=speed * turn_speed_factor(yaw, heading, union.fov_rad))
+        return chosen
+
     def command(index: int, speed: float, mode: str) -> GuidanceCommand:
         heading = float(candidates[index])
         urgent, ttca = _most_urgent(position, motion, goal_heading, cruise, obstacles, radii,
@@ -122,20 +159,20 @@ def choose_velocity(pose: np.ndarray, goal_heading: float, goal_distance: float,
         skip = 0
         if free[0] == 0:
             if reachable(free[:1], speed)[0] >= 0.0:
-                return command(0, speed, "avoid")
+                return looked(command(0, speed, "avoid"), speed)
             skip = 1                     # the goal heading is not reachable: scan the others
         first, first_forward = _first_passing(free, skip, lambda k: reachable(k, speed),
                                               offset, velocities is not None)
         if first is None:
             continue
         if velocities is None or abs(offset[first]) < 0.5 * np.pi:
-            return command(first, speed, "avoid")
+            return looked(command(first, speed, "avoid"), speed)
         # Flying away from the goal to keep clear of a mover: at full speed beside a crossing
         # mover that heading can stay free for as long as the mover goes on (traffic worlds: an
         # escort 300 m off the way); a slower speed that makes headway, behind it, comes first.
         away = away or command(first, speed, "avoid")
         if first_forward is not None:
-            return command(first_forward, speed, "avoid")
+            return looked(command(first_forward, speed, "avoid"), speed)
     if away is not None:
         return away
     everything = np.argsort(cost, kind="stable")
@@ -181,6 +218,16 @@ def _first_passing(order: np.ndarray, skip: int, margin_of, offset: np.ndarray,
                 break
         position, size = position + size, FIRST_CHUNK if size == 1 else len(order)
     return first, forward
+
+
+def look_flyable(pose: np.ndarray, heading: float, speed: float, params: GuidanceParams,
+                 union: UnionParams, motion: Motion, seen: SeenSpace | None) -> bool:
+    """With no obstacle near: a look heading (flank_scan.py) is flyable if it keeps d from
+    space never seen (only where the stopping distance exceeds d, as choose_velocity)."""
+    if seen is None or _stopping_m(speed, motion, union) <= params.safety_distance_m:
+        return True
+    return bool(_seen_margin(seen, pose[:2], motion, np.array([heading]), speed, union,
+                             params.safety_distance_m)[0] >= 0.0)
 
 
 def _stopping_m(speed: float, motion: Motion, union: UnionParams) -> float:
