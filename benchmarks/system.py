@@ -418,6 +418,9 @@ def print_system(system: dict) -> None:
                 f"(n={fig['samples']})")
     lat, prb = system["latency_ms"], system["latency_probe_ms"]
     print(f"obstacle -> setpoint, daemon tlog ({lat['source']}): {ms(lat)}")
+    if "reaction" in lat:
+        print(f"                      from the message that closed the frame: "
+              f"{ms(lat['reaction'])}; frames unanswered: {lat['unanswered']}")
     print(f"obstacle -> setpoint, external probe (2 loopback hops): {ms(prb['external'])}")
     print(f"                      same reports in the daemon tlog:  {ms(prb['daemon'])}")
     print(f"loopback round trip (Python echo process): {ms(system['loopback_rtt_ms'])}")
