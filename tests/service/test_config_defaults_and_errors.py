@@ -147,7 +147,8 @@ def refusals(tmp_path_factory):
         cases[("config", i)] = ("--config", str(paths[i]), "--goal", "100,0")
     procs = {case: subprocess.Popen(
         [sys.executable, "-m", "companion", "run", "--connect", "udpin:127.0.0.1:0", *args],
-        stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True) for case, args in cases.items()}
+        stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+        for case, args in cases.items()}
     results = {}
     try:
         for case, proc in procs.items():
