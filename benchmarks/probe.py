@@ -134,14 +134,21 @@ class FakeVehicle:
             self.t_ms, 20.0, 0.0, -10.0, 0.0, 0.0, 0.0))
 
     def obstacle(self, index: int) -> int:
-        """One OBSTACLE_DISTANCE_3D at the current time; returns the send time (ns)."""
+        """One OBSTACLE_DISTANCE_3D at the current time, then the camera's heartbeat; returns the
+        report's send time (ns). The daemon holds a camera frame (the reports of one time) until
+        a message that is not part of it arrives: the heartbeat closes it at once."""
         oid, forward_m, right_m = OBSTACLES_FRD_M[index % len(OBSTACLES_FRD_M)]
         self._camera.send(mavlink.MAVLink_obstacle_distance_3d_message(
             self.t_ms, mavlink.MAV_DISTANCE_SENSOR_UNKNOWN, mavlink.MAV_FRAME_BODY_FRD, oid,
             forward_m, right_m, 0.0, 0.2, 40.0))
         data = self._out.last
+        self._camera.send(mavlink.MAVLink_heartbeat_message(
+            mavlink.MAV_TYPE_CAMERA, mavlink.MAV_AUTOPILOT_INVALID, 0, 0,
+            mavlink.MAV_STATE_ACTIVE, 3))
+        closing = self._out.last
         start = time.perf_counter_ns()
         self.sock.sendto(data, self.addr)
+        self.sock.sendto(closing, self.addr)
         return start
 
     def wait_for_setpoint(self, timeout_s: float = REPLY_TIMEOUT_S) -> int | None:

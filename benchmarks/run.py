@@ -46,6 +46,9 @@ def targets(report: dict) -> dict:
     if "latency_ms" in system:
         out["latency_p99_ms"] = system["latency_ms"].get("p99")   # None: the flight failed
         limits["latency_p99_ms"] = ("<", 2.0)
+        # the part after the message that closed the camera frame (the rest is the wait for it)
+        out["latency_reaction_p99_ms"] = system["latency_ms"].get("reaction", {}).get("p99")
+        limits["latency_reaction_p99_ms"] = ("info", None)
     if "replay" in system:
         replay = system["replay"]
         out["replay_over_parse"] = replay["msgs_per_s"] / replay["parse_only_msgs_per_s"] \

@@ -4,9 +4,12 @@ and the daemon's memory, all from one run of ``benchmarks/run.py``.
 - Flights are real ``companion demo`` runs (sitl-stub, `companion run` and a ground station as
   separate processes over loopback), each recording the daemon's tlog.
 - Latency, in the daemon: its tlog stamps each inbound record when the link received the
-  datagram and each outbound one when it was handed to the socket (mavlink_link.py), so
-  t(first SET_POSITION_TARGET_LOCAL_NED sent after an OBSTACLE_DISTANCE_3D, before the next
-  inbound message) - t(that OBSTACLE_DISTANCE_3D). Measured on the long corridor flight.
+  datagram and each outbound one when it was handed to the socket (mavlink_link.py). The
+  pipeline holds a camera frame (its obstacle reports of one time) until a message that is not
+  part of it arrives, and decides then; so t(first SET_POSITION_TARGET_LOCAL_NED sent after the
+  message that closed the frame, before the next inbound one) - t(the frame's last report), and
+  the same setpoint from the closing message (the daemon's reaction once the frame is complete).
+  Measured on the long corridor flight.
   Outside it: benchmarks/probe.py, a fake vehicle timing the setpoint's arrival (two hops).
 - Closed loop: the paper's scenario at several speedups with the stub on the wall clock
   (``--no-lockstep``). ``sim_s`` is arming to arrival in the vehicle's time (the demo's score);
@@ -92,24 +95,62 @@ class Flight:
 
 
 # ------------------------------------------------------------------ tlog readings
-def tlog_latencies_ns(path: Path) -> tuple[list[int], int]:
-    """Obstacle report -> reacting setpoint, in ns of the daemon's link clock, in file order.
+@dataclass
+class FrameLatencies:
+    """Obstacle frames -> reacting setpoints in one tlog, ns of the daemon's link clock, in file
+    order: ``total`` from the receipt of the frame's last report, ``reaction`` from the receipt
+    of the message that closed the frame; ``unanswered`` frames had no setpoint (before arming,
+    a frame that changed nothing)."""
+    total: list[int] = field(default_factory=list)
+    reaction: list[int] = field(default_factory=list)
+    unanswered: int = 0
+
+    def as_dict(self) -> dict:
+        return probe.percentiles_ms(self.total) | {
+            "unanswered": self.unanswered, "reaction": probe.percentiles_ms(self.reaction)}
+
+
+def _frame_key(msg) -> tuple | None:
+    """(system, component, time s) of an obstacle report: the pipeline's frame is the reports of
+    one camera with one time (pipeline._FrameAssembly.continued_by)."""
+    kind = msg.get_type()
+    if kind == "OBSTACLE_DISTANCE_3D":
+        t_s = msg.time_boot_ms / 1000.0
+    elif kind == "OBSTACLE_DISTANCE":
+        t_s = msg.time_usec / 1e6
+    else:
+        return None
+    return msg.get_srcSystem(), msg.get_srcComponent(), t_s
+
+
+def tlog_latencies_ns(path: Path) -> FrameLatencies:
+    """Obstacle frame -> reacting setpoint, from the daemon's tlog.
 
     The daemon writes an inbound record just before handling it, and what the handling sends
-    right after; a setpoint is the reaction only if it comes before the next inbound record.
-    Returns (latencies, reports not answered by a setpoint, e.g. before arming).
+    right after. A camera frame is handed to the estimator (and decided on) when the first
+    message that is not part of it is handled, so its setpoint follows that closing message
+    and counts as the reaction only if it comes before the next inbound record.
     """
-    latencies, unanswered, pending = [], 0, None
+    out = FrameLatencies()
+    open_key, open_t_us = None, None        # the frame being assembled, its last report's time
+    closed = None                           # (last report t_us, closing t_us) awaiting a setpoint
     for record in TlogReader(path):
         msg = record.msg
-        kind = msg.get_type()
         if msg.get_srcComponent() != OUR_COMPONENT:
-            unanswered += pending is not None
-            pending = record.t_us if kind == "OBSTACLE_DISTANCE_3D" else None
-        elif kind == "SET_POSITION_TARGET_LOCAL_NED" and pending is not None:
-            latencies.append((record.t_us - pending) * 1000)
-            pending = None
-    return latencies, unanswered
+            if closed is not None:
+                out.unanswered += 1
+                closed = None
+            key = _frame_key(msg)
+            if open_key is not None and key != open_key:
+                closed, open_key = (open_t_us, record.t_us), None
+            if key is not None:
+                open_key, open_t_us = key, record.t_us
+        elif msg.get_type() == "SET_POSITION_TARGET_LOCAL_NED" and closed is not None:
+            out.total.append((record.t_us - closed[0]) * 1000)
+            out.reaction.append((record.t_us - closed[1]) * 1000)
+            closed = None
+    out.unanswered += (closed is not None) + (open_key is not None)
+    return out
 
 
 def link_clock(path: Path) -> tuple[np.ndarray, np.ndarray, int]:
@@ -197,8 +238,7 @@ def fly(scenario: Path, speedup: float, workdir: Path, name: str,
             # obstacle-to-setpoint latency needs a flight, not an arrival: the 1 km GPS-denied
             # corridor ends its leg ~7 m from the goal (the estimate's drift) and the companion
             # honestly refuses to declare arrival there, so the demo times out
-            latencies, unanswered = tlog_latencies_ns(tlog)
-            flight.latency_ms = probe.percentiles_ms(latencies) | {"unanswered": unanswered}
+            flight.latency_ms = tlog_latencies_ns(tlog).as_dict()
         return flight, tlog
     result = json.loads(out.read_text())
     summary = result["runs"][0]
@@ -223,8 +263,7 @@ def fly(scenario: Path, speedup: float, workdir: Path, name: str,
             # Vehicle time that passed while the daemon heard nothing (stub, kernel or daemon
             # not scheduled): at speedup 200 a 10 ms stall is 2 s of flying on an old setpoint.
             flight.max_stall_sim_s = float(np.max(np.diff(link_s[flying]))) * speedup
-    latencies, unanswered = tlog_latencies_ns(tlog)
-    flight.latency_ms = probe.percentiles_ms(latencies) | {"unanswered": unanswered}
+    flight.latency_ms = tlog_latencies_ns(tlog).as_dict()
     return flight, tlog
 
 
@@ -336,7 +375,7 @@ def run(quick: bool) -> dict:
         samples = 300 if quick else 2000
         paper_config = config_to_dict(demo_config(load_scenario(PAPER)))
         probed = probe.run_probe(samples, workdir, paper_config)
-        inside, _ = tlog_latencies_ns(Path(probed["tlog"]))
+        inside = tlog_latencies_ns(Path(probed["tlog"])).total
         corridor, corridor_tlog = fly(CORRIDOR, CORRIDOR_SPEEDUP, workdir, "corridor")
         corridor.judged = False
         flights = []
@@ -379,6 +418,9 @@ def print_system(system: dict) -> None:
                 f"(n={fig['samples']})")
     lat, prb = system["latency_ms"], system["latency_probe_ms"]
     print(f"obstacle -> setpoint, daemon tlog ({lat['source']}): {ms(lat)}")
+    if "reaction" in lat:
+        print(f"                      from the message that closed the frame: "
+              f"{ms(lat['reaction'])}; frames unanswered: {lat['unanswered']}")
     print(f"obstacle -> setpoint, external probe (2 loopback hops): {ms(prb['external'])}")
     print(f"                      same reports in the daemon tlog:  {ms(prb['daemon'])}")
     print(f"loopback round trip (Python echo process): {ms(system['loopback_rtt_ms'])}")

@@ -3,14 +3,13 @@
 from __future__ import annotations
 
 import json
-import os
-import subprocess
-import sys
 from pathlib import Path
+from types import SimpleNamespace
 
 import pytest
 
 from companion import ardupilot_sitl as sitl
+from companion.__main__ import main
 from companion.adapters.codec import mavlink
 from companion.autopilot_demo import service_config, sitl_home
 from companion.config import load_config, load_scenario
@@ -118,13 +117,14 @@ def test_takeoff_checks_count_setpoints_on_the_ground_and_a_disarm():
     assert takeoff_checks(setpoints, unknown, None)["setpoints_while_landed"] == 1
 
 
-def companion_demo(*args):
-    env = {k: v for k, v in os.environ.items() if k != "ARDUCOPTER_DEFAULTS"}
-    return subprocess.run([sys.executable, "-m", "companion", "demo", *args], capture_output=True,
-                          text=True, cwd=REPO, timeout=60, env=env)
+def test_the_autopilot_demo_refuses_clearly(tmp_path, monkeypatch, capsys):
+    """Through the CLI's entry in this process: each refusal comes before anything starts."""
+    monkeypatch.delenv("ARDUCOPTER_DEFAULTS", raising=False)
 
-
-def test_the_autopilot_demo_refuses_clearly(tmp_path):
+    def companion_demo(*args):
+        capsys.readouterr()
+        code = main(["demo", *args])
+        return SimpleNamespace(returncode=code, stderr=capsys.readouterr().err)
     done = companion_demo("--autopilot", str(tmp_path / "arducopter"))
     assert done.returncode == 2 and "--autopilot-defaults" in done.stderr
     parm = tmp_path / "copter.parm"

@@ -97,12 +97,19 @@ def test_chunks_cover_every_run_index_once():
             assert all(1 <= count <= size for _, count in plan)
 
 
-def test_local_cluster_of_two_processes_matches_simulate(tmp_path):
+# The campaigns below fly these worlds; `companion simulate` of the same runs, once per module.
+DENSE = ("--random-worlds", "dense", "--runs", "6", "--seed", "3")
+
+
+@pytest.fixture(scope="module")
+def dense_simulated(tmp_path_factory):
+    return cli(tmp_path_factory.mktemp("simulate"), "simulate", "simulate", *DENSE)
+
+
+def test_local_cluster_of_two_processes_matches_simulate(tmp_path, dense_simulated):
     png = tmp_path / "hist.png"
-    camp = cli(tmp_path, "campaign", "campaign", "--random-worlds", "dense", "--runs", "6",
-               "--seed", "3", "--workers", "2", "--plot", str(png))
-    sim = cli(tmp_path, "simulate", "simulate", "--random-worlds", "dense", "--runs", "6",
-              "--seed", "3")
+    camp = cli(tmp_path, "campaign", "campaign", *DENSE, "--workers", "2", "--plot", str(png))
+    sim = dense_simulated
     assert camp["campaign"]["workers"] == 2 and camp["campaign"]["cluster"] == "local"
     assert camp["aggregate"] == sim["aggregate"]
     assert camp["runs"] == sim["runs"]
@@ -110,10 +117,10 @@ def test_local_cluster_of_two_processes_matches_simulate(tmp_path):
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 20_000
 
 
-def test_external_scheduler_and_worker_give_the_same_aggregate(tmp_path, scheduler):
-    camp = cli(tmp_path, "campaign", "campaign", "--random-worlds", "dense", "--runs", "6",
-               "--scheduler", scheduler)
-    sim = cli(tmp_path, "simulate", "simulate", "--random-worlds", "dense", "--runs", "6")
+def test_external_scheduler_and_worker_give_the_same_aggregate(tmp_path, scheduler,
+                                                             dense_simulated):
+    camp = cli(tmp_path, "campaign", "campaign", *DENSE, "--scheduler", scheduler)
+    sim = dense_simulated
     assert camp["campaign"]["cluster"] == scheduler and camp["campaign"]["workers"] == 1
     assert camp["aggregate"] == sim["aggregate"]
     assert camp["runs"] == sim["runs"]
@@ -209,14 +216,13 @@ def test_without_dask_campaign_says_how_to_install_and_simulate_still_works(tmp_
 
 
 @pytest.fixture(scope="module")
-def fleet(tmp_path_factory):
-    """A real recording by `companion demo`, copied into a fleet folder with a cut and a junk file."""
+def fleet(tmp_path_factory, paper_demo):
+    """A real recording by `companion demo` (the session's paper demo, tests/conftest.py), with
+    its config sidecar, copied into a fleet folder with a cut and a junk file."""
     out = tmp_path_factory.mktemp("fleet")
-    done = subprocess.run([sys.executable, "-m", "companion", "demo", "--speedup", "40",
-                           "--tlog", str(out / "a.tlog")], capture_output=True, text=True,
-                          cwd=REPO, timeout=90)
-    assert done.returncode == 0, done.stdout + done.stderr
-    data = (out / "a.tlog").read_bytes()
+    data = (paper_demo.workdir / "demo.tlog").read_bytes()
+    (out / "a.tlog").write_bytes(data)
+    (out / "a.config.yaml").write_bytes((paper_demo.workdir / "demo.config.yaml").read_bytes())
     (out / "day2").mkdir()
     (out / "day2" / "b.tlog").write_bytes(data)                  # no sidecar: default config
     (out / "day2" / "cut.tlog").write_bytes(data[:len(data) // 3])

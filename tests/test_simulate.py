@@ -69,13 +69,14 @@ def test_bad_scenario_gives_exit_2_and_names_the_file(tmp_path, capsys):
 
 
 def test_dense_worlds_union_beats_the_paper_law(tmp_path):
-    # 10 runs: the paper's law failed 4 of them (seeds 300, 303, 304, 309) and 13 of 25, the
-    # union none of 25 (measured on main, 2026-12-01)
-    union = simulate(tmp_path, "--random-worlds", "dense", "--runs", "10", "--seed", "300")
+    # 5 runs: the paper's law fails 3 of them (success 0.4 on seeds 300-304, measured
+    # 2026-12-02; of 10 it failed seeds 300, 303, 304 and 309, and 13 of 25), the union none
+    # (none of 25 either, measured on main, 2026-12-01)
+    union = simulate(tmp_path, "--random-worlds", "dense", "--runs", "5", "--seed", "300")
     assert union["aggregate"]["strategy"] == "union"        # the scenario file's default
     assert union["aggregate"]["collision_rate"] == 0.0
     assert union["aggregate"]["success_rate"] >= 0.95
-    paper = simulate(tmp_path, "--random-worlds", "dense", "--runs", "10", "--seed", "300",
+    paper = simulate(tmp_path, "--random-worlds", "dense", "--runs", "5", "--seed", "300",
                      "--strategy", "cone")
     assert paper["aggregate"]["success_rate"] < union["aggregate"]["success_rate"]
 

@@ -6,9 +6,11 @@ import json
 import random
 import subprocess
 import sys
+from types import SimpleNamespace
 
 import pytest
 
+from companion.__main__ import main
 from companion.adapters import codec
 from companion.adapters.codec import mavlink
 from companion.adapters.tlog import TlogReader, TlogWriter
@@ -18,6 +20,15 @@ from tests.e2e.support import REPO
 def companion(*args, timeout_s=90.0):
     return subprocess.run([sys.executable, "-m", "companion", *args], capture_output=True,
                           text=True, cwd=REPO, timeout=timeout_s)
+
+
+def replay(capsys, *args):
+    """`companion replay ...` through the CLI's entry in this process (a replay reads a file and
+    ends: an interpreter's start-up per call bought nothing); its exit code and output."""
+    capsys.readouterr()
+    code = main(["replay", *args])
+    out = capsys.readouterr()
+    return SimpleNamespace(returncode=code, stdout=out.out, stderr=out.err)
 
 
 @pytest.fixture(scope="module")
@@ -41,9 +52,9 @@ def test_demo_reaches_the_goal_safely_and_writes_its_outputs(demo):
     assert (out / "demo.config.yaml").exists()
 
 
-def test_replay_of_the_demo_reproduces_estimates_and_setpoints(demo, tmp_path):
+def test_replay_of_the_demo_reproduces_estimates_and_setpoints(demo, tmp_path, capsys):
     out, _ = demo
-    done = companion("replay", str(out / "demo.tlog"), "--json", str(tmp_path / "r.json"),
+    done = replay(capsys, str(out / "demo.tlog"), "--json", str(tmp_path / "r.json"),
                      "--csv", str(tmp_path / "r.csv"), "--plot", str(tmp_path / "r.png"))
     assert done.returncode == 0, done.stderr
     report = json.loads((tmp_path / "r.json").read_text())
@@ -72,12 +83,12 @@ def record_start_after(data: bytes, offset: int) -> int:
     return pos
 
 
-def test_replay_of_a_cut_tlog_keeps_everything_before_the_cut(demo, tmp_path):
+def test_replay_of_a_cut_tlog_keeps_everything_before_the_cut(demo, tmp_path, capsys):
     out, _ = demo
     data = (out / "demo.tlog").read_bytes()
     cut = tmp_path / "cut.tlog"
     cut.write_bytes(data[:record_start_after(data, len(data) // 2) + 8 + 15])  # header and 5 payload bytes
-    done = companion("replay", str(cut), "--config", str(out / "demo.config.yaml"),
+    done = replay(capsys, str(cut), "--config", str(out / "demo.config.yaml"),
                      "--json", str(tmp_path / "r.json"))
     assert done.returncode == 0, done.stderr
     report = json.loads((tmp_path / "r.json").read_text())
@@ -85,7 +96,7 @@ def test_replay_of_a_cut_tlog_keeps_everything_before_the_cut(demo, tmp_path):
     assert report["setpoints_mismatched"] == 0 and report["setpoints_compared"] > 50
 
 
-def test_replay_of_a_corrupted_tlog_skips_the_damage(demo, tmp_path):
+def test_replay_of_a_corrupted_tlog_skips_the_damage(demo, tmp_path, capsys):
     out, _ = demo
     data = bytearray((out / "demo.tlog").read_bytes())
     rng = random.Random(5)
@@ -93,7 +104,7 @@ def test_replay_of_a_corrupted_tlog_skips_the_damage(demo, tmp_path):
         data[start:start + 100] = rng.randbytes(100)
     bad = tmp_path / "bad.tlog"
     bad.write_bytes(bytes(data))
-    done = companion("replay", str(bad), "--config", str(out / "demo.config.yaml"),
+    done = replay(capsys, str(bad), "--config", str(out / "demo.config.yaml"),
                      "--json", str(tmp_path / "r.json"))
     assert done.returncode == 0, done.stderr
     report = json.loads((tmp_path / "r.json").read_text())
@@ -105,16 +116,17 @@ def test_replay_of_a_corrupted_tlog_skips_the_damage(demo, tmp_path):
 
 
 @pytest.mark.parametrize("content", [b"", b"GPS week 2300, not a telemetry log\n" * 100])
-def test_replay_of_empty_or_foreign_bytes_fails_clearly(tmp_path, content):
+def test_replay_of_empty_or_foreign_bytes_fails_clearly(tmp_path, content, capsys):
     path = tmp_path / "x.tlog"
     path.write_bytes(content)
-    done = companion("replay", str(path))
+    done = replay(capsys, str(path))
     assert done.returncode == 1
     assert "nothing readable" in done.stderr
     assert "Traceback" not in done.stderr
 
 
-def test_replay_of_a_ground_station_log_with_two_vehicles_gives_a_pose_only_track(demo, tmp_path):
+def test_replay_of_a_ground_station_log_with_two_vehicles_gives_a_pose_only_track(demo, tmp_path,
+                                                                                 capsys):
     """What a GCS or router records: no companion traffic, no obstacles, a second vehicle and the
     GCS's own messages."""
     out, _ = demo
@@ -130,14 +142,14 @@ def test_replay_of_a_ground_station_log_with_two_vehicles_gives_a_pose_only_trac
                 tlog.write(record.t_us, other.encode(
                     mavlink.MAVLink_heartbeat_message(2, 3, 0, 0, 4, 3)))
                 tlog.write(record.t_us, gcs.encode(codec.gcs_heartbeat()))
-    done = companion("replay", str(path), "--goal", "180,0", "--json", str(tmp_path / "r.json"))
+    done = replay(capsys, str(path), "--goal", "180,0", "--json", str(tmp_path / "r.json"))
     assert done.returncode == 0, done.stderr
     report = json.loads((tmp_path / "r.json").read_text())
     assert report["vehicle"] == [1, 1] and report["other_vehicles"] == [2]
     assert len(report["track"]["t_s"]) > 100 and report["landmarks"] == []
     notes = " | ".join(report["notes"])
     assert "pose-only track" in notes and "several vehicles" in notes and "no comparison" in notes
-    done = companion("replay", str(path), "--sysid", "2", "--json", str(tmp_path / "r2.json"))
+    done = replay(capsys, str(path), "--sysid", "2", "--json", str(tmp_path / "r2.json"))
     report = json.loads((tmp_path / "r2.json").read_text())
     assert report["vehicle"] == [2, 1] and report["track"]["t_s"] == []
 

@@ -19,13 +19,14 @@ TAKEOFF_ALT_M = 10.0
 
 def test_docs_workflow_takeoff_in_guided_then_avoid_to_the_goal(tmp_path):
     truth_path, tlog, report = tmp_path / "truth.jsonl", tmp_path / "run.tlog", tmp_path / "r.json"
+    # lock-step: the flight is the same whatever the machine's load (and over sooner)
     stub, tcp_port, udp_port = start_stub(tmp_path, "--speedup", SPEEDUP, "--seed", "3",
-                                          "--truth-log", str(truth_path))
+                                          "--truth-log", str(truth_path), lockstep=True)
     processes = [stub]
     try:
         config = write_config(tmp_path, goal=(180.0, 0.0))
         companion = start_companion(tmp_path, f"udpout:127.0.0.1:{udp_port}", config,
-                                    "--tlog", str(tlog), "--report", str(report))
+                                    "--tlog", str(tlog), "--report", str(report), lockstep=True)
         processes.append(companion)
         wait_until(lambda: report.exists(), 20.0, "the daemon's estimator (up from boot)")
         gcs = GroundStation(tcp_port)

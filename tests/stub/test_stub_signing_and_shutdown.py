@@ -17,8 +17,13 @@ def mode_of(conn) -> int | None:
     return None if hb is None else hb.custom_mode
 
 
+# The stub's clock at 5x the wall's: its 1 Hz heartbeats, which every step below waits for, come
+# five times as often (nothing here depends on the pace).
+SPEEDUP = ("--speedup", "5")
+
+
 def test_after_setup_signing_an_unsigned_client_cannot_steer(tmp_path):
-    stub = start_stub(tmp_path)
+    stub = start_stub(tmp_path, *SPEEDUP)
     owner, intruder = connect_tcp(stub.tcp_port), connect_tcp(stub.tcp_port)
     try:
         assert wait_heartbeat(owner) is not None and wait_heartbeat(intruder) is not None
@@ -53,7 +58,7 @@ def test_after_setup_signing_an_unsigned_client_cannot_steer(tmp_path):
 
 
 def test_sigterm_with_tcp_clients_connected_exits_without_a_traceback(tmp_path):
-    stub = start_stub(tmp_path)
+    stub = start_stub(tmp_path, *SPEEDUP)
     clients = [connect_tcp(stub.tcp_port) for _ in range(2)]
     try:
         assert all(wait_heartbeat(c) is not None for c in clients)
