@@ -41,3 +41,37 @@ def is_straight_track(times_s, points_ne_m, sigmas_m,
         return False
     nis, dof = straight_track_nis(times_s, points_ne_m, sigmas_m)
     return nis <= chi2_quantile(probability, dof)
+
+
+def shared_yaw_velocity_cov(times_s, ranges_m, directions_rad, yaw_vars_rad2,
+                            yaw_log_transfers) -> np.ndarray:
+    """(2, 2) covariance of the unweighted least-squares velocity (as movers.apparent_velocity
+    fits it) that the pose's yaw error puts into points placed with it.
+
+    A point seen at range r along world direction a (the pose's yaw plus the bearing) is
+    displaced by r (-sin a, cos a) e by the pose's yaw error e. The filter's yaw errors at two
+    frames are not independent: through a predict the error carries over whole (plus new,
+    independent noise); through a correction it is scaled by (1 - K H) of the yaw, so
+    Cov(e_i, e_j) = exp(L_j - L_i) P_i for t_i <= t_j, where P_i is the yaw variance the point
+    i was placed with and L the running log of the corrections' factors
+    (navigator._yaw_log_transfer). Two frames 0.2 s apart share nearly all of their yaw error,
+    and it cancels in their difference instead of counting twice.
+    """
+    times = np.asarray(times_s, dtype=float)
+    order = np.argsort(times, kind="stable")
+    times = times[order]
+    ranges = np.asarray(ranges_m, dtype=float)[order]
+    directions = np.asarray(directions_rad, dtype=float)[order]
+    variances = np.asarray(yaw_vars_rad2, dtype=float)[order]
+    logs = np.asarray(yaw_log_transfers, dtype=float)[order]
+    centred = times - times.mean()
+    denom = float(centred @ centred)
+    if denom <= 0.0:
+        return np.zeros((2, 2))
+    # yaw-error covariance between the points (earlier index i, later j)
+    i, j = np.meshgrid(np.arange(len(times)), np.arange(len(times)), indexing="ij")
+    early, late = np.minimum(i, j), np.maximum(i, j)
+    yaw_cov = np.exp(np.minimum(logs[late] - logs[early], 0.0)) * variances[early]
+    lateral = np.column_stack([-np.sin(directions), np.cos(directions)])
+    weights = (centred / denom * ranges)[:, None] * lateral           # (n, 2)
+    return weights.T @ yaw_cov @ weights

@@ -21,7 +21,7 @@ from companion.core.ekf_slam import AssociationGates, EkfSlam, Observation, Slam
 from companion.core.estimator_options import EstimatorOptions, moderate
 from companion.core.geometry import move, move_velocity, place, wrap_angle
 from companion.core.lifecycle import Lifecycle, expected_visible
-from companion.core.motion_evidence import is_straight_track
+from companion.core.motion_evidence import is_straight_track, shared_yaw_velocity_cov
 from companion.core.range_noise import with_range_model
 from companion.core.surface_cover import covering_nis
 from companion.core.guidance import GuidanceCommand, GuidanceParams, guide_apf, guide_cone
@@ -63,6 +63,15 @@ class _Young:
     times: list = field(default_factory=list)
     points: list = field(default_factory=list)
     sigmas: list = field(default_factory=list)          # each point's standard deviation, m
+    # ... of it, what is the point's own (the measurement's, the frame timing's), m
+    free_sigmas: list = field(default_factory=list)
+    # and what the pose's yaw error does (motion_evidence.shared_yaw_velocity_cov): each point's
+    # range (m), world direction (rad), the yaw variance it was placed with (rad^2) and the
+    # filter's running log yaw transfer then (_yaw_transfer_log)
+    ranges: list = field(default_factory=list)
+    directions: list = field(default_factory=list)
+    yaw_vars: list = field(default_factory=list)
+    yaw_logs: list = field(default_factory=list)
     last_obs: Observation | None = None
 
 
@@ -121,6 +130,10 @@ class Navigator:
         self._strikes: dict[int, int] = {}
         self._dr_pose = np.array(start_pose, dtype=float)   # odometry only, never corrected
         self._young: dict[int, _Young] = {}
+        # the log of the factor by which the corrections so far scaled the filter's yaw error
+        # (_yaw_transfer_log), and the yaw variance it was last brought up to date at
+        self._yaw_log_transfer = 0.0
+        self._yaw_var_mark: float | None = None
         self.movers_detected = 0
         self._next_anonymous_id = -1
         self._turn_rate_rad_s = 0.0
@@ -288,8 +301,10 @@ class Navigator:
     def predict_velocity(self, vel_north_mps: float, vel_east_mps: float, yaw_rate_rad_s: float,
                          dt_s: float, var_scale: float = 1.0) -> None:
         """The multicopter model's predict (see EkfSlam.predict_velocity)."""
+        self._yaw_transfer_log()
         self.slam.predict_velocity(vel_north_mps, vel_east_mps, yaw_rate_rad_s, dt_s,
                                    self.options.velocity_noise, var_scale)
+        self._yaw_var_mark = float(self.slam.cov[2, 2])   # a predict carries the error over whole
         self.clock_s += max(dt_s, 0.0)
         self._dr_pose = move_velocity(self._dr_pose, vel_north_mps, vel_east_mps, yaw_rate_rad_s,
                                       dt_s)
@@ -301,11 +316,30 @@ class Navigator:
     def correct_yaw(self, yaw_rad: float, dt_s: float | None = None) -> UpdateReport:
         """The autopilot's yaw as a measurement of the yaw state, ``dt_s`` after the last one
         (its sigma: ``EstimatorOptions.yaw_fix_sigma_rad``); the dead reckoning takes it."""
+        self._yaw_transfer_log()
         report = self.slam.update_yaw(yaw_rad, self.options.yaw_fix_sigma_rad(dt_s),
                                       self.options.yaw_gate_nis)
+        # a reset first inflated the variance by the squared innovation: its K is the inflated one
+        self._yaw_transfer_log(report.innovation[0] ** 2 if report.action == "yaw_reset" else 0.0)
         self.monitor.add(self.clock_s, report.nis, 1)
         self._dr_pose[2] = wrap_angle(yaw_rad)
         return report
+
+    def _yaw_transfer_log(self, inflated_rad2: float = 0.0) -> float:
+        """The running log of the factor by which the corrections so far scaled the filter's yaw
+        error, brought up to date: the filter's yaw errors at two times t_i <= t_j then have
+        Cov(e_i, e_j) = exp(L_j - L_i) P_i. A predict carries the yaw error over whole (F's yaw
+        row is e_2) and adds independent noise, so it adds nothing to L; between predicts only
+        corrections change the yaw variance, each by its (1 - K H) of the yaw: exact for the
+        autopilot's yaw (a direct measurement), and the yaw's own share for a landmark's or a
+        position fix (their cross terms with the yaw error are left out). A variance that grows
+        between predicts (an inflation, not a correction) leaves the error as it was."""
+        var = float(self.slam.cov[2, 2])
+        mark = self._yaw_var_mark
+        if mark is not None and mark + inflated_rad2 > 0.0:
+            self._yaw_log_transfer += math.log(min(max(var, 1e-300) / (mark + inflated_rad2), 1.0))
+        self._yaw_var_mark = var
+        return self._yaw_log_transfer
 
     def correct_position(self, north_m: float, east_m: float, sigma_m: float) -> UpdateReport | None:
         """Fuse the autopilot's horizontal position (sigma_m per axis), at most once per
@@ -516,8 +550,15 @@ class Navigator:
                 if self.options.motion_model == "velocity_ned" else 0.0
             point_sigma = self._point_sigma_m if obs.meas_cov is None else math.sqrt(
                 obs.meas_cov[0][0] + obs.range_m ** 2 * obs.meas_cov[1][1])
-            young.sigmas.append(math.hypot(point_sigma, obs.range_m * self._turn_rate_rad_s
-                                           * self._frame_timing_s, obs.range_m * yaw_sigma))
+            timing_sigma = obs.range_m * self._turn_rate_rad_s * self._frame_timing_s
+            young.sigmas.append(math.hypot(point_sigma, timing_sigma, obs.range_m * yaw_sigma))
+            # the yaw's share is common to the frames (shared_yaw_velocity_cov), the rest is not
+            young.free_sigmas.append(math.hypot(point_sigma, timing_sigma, 0.0))
+            young.ranges.append(obs.range_m)
+            young.directions.append(float(self._young_pose()[2]) + obs.bearing_rad)
+            young.yaw_vars.append(yaw_sigma ** 2)
+            young.yaw_logs.append(self._yaw_transfer_log()
+                                  if self.options.motion_model == "velocity_ned" else 0.0)
             young.last_obs = obs
 
     def _young_pose(self) -> np.ndarray:
@@ -581,7 +622,6 @@ class Navigator:
 
     def _judge_young(self) -> list[UpdateReport]:
         params = self.mover_params
-        noise = self.slam.noise
         detected = []
         crab = self._crab_speed()
         for oid, young in list(self._young.items()):
@@ -606,9 +646,7 @@ class Navigator:
             # often a poor pose at the frame's time (a lost sample under packet loss) than motion.
             moving = False
             if young.times[-1] - young.times[0] >= params.min_span_s:
-                velocity, sigma = apparent_velocity(np.array(young.times), np.array(young.points),
-                                                    max(young.sigmas), self._dr_speed_sigma_mps(),
-                                                    noise.reference_dt_s)
+                velocity, sigma = self._apparent_velocity(young)
                 # What a static obstacle seems to do: the dead reckoning's own drift (sigma) and,
                 # for the unicycle, the vehicle's sideways motion it does not model (crab).
                 speed = float(np.hypot(*velocity)) - crab
@@ -630,6 +668,23 @@ class Navigator:
         self._young.pop(oid, None)
         self.lifecycle.forget(oid)
         self.slam.remove_landmark(self.slam.landmark_ids().index(oid))
+
+    def _apparent_velocity(self, young: _Young) -> tuple[np.ndarray, float]:
+        """A landmark on probation's apparent velocity and its sigma (movers.apparent_velocity):
+        its points' own noise and the dead reckoning's drift, independent from frame to frame,
+        plus the pose's yaw error, which is not (shared_yaw_velocity_cov: nearly the same in
+        two frames 0.2 s apart, it mostly cancels in their difference; counted independent,
+        two points at 35 m would give +-2.1 m/s where their errors are about 1 m/s). Zero for
+        the unicycle, whose points are placed with the dead-reckoned yaw and carry no yaw term."""
+        times = np.array(young.times)
+        velocity, sigma = apparent_velocity(times, np.array(young.points), max(young.free_sigmas),
+                                            self._dr_speed_sigma_mps(),
+                                            self.slam.noise.reference_dt_s)
+        if max(young.yaw_vars) > 0.0:
+            shared = shared_yaw_velocity_cov(times, young.ranges, young.directions,
+                                             young.yaw_vars, young.yaw_logs)
+            sigma = math.sqrt(sigma ** 2 + float(np.linalg.eigvalsh(shared)[-1]))
+        return velocity, sigma
 
     def _track_sigmas(self, young: _Young) -> np.ndarray:
         """Each dead-reckoned point's sigma for the straight-track test: its own, plus the dead
@@ -714,9 +769,7 @@ class Navigator:
         if len(young.times) < self.mover_params.young_min_sightings \
                 or young.times[-1] - young.times[0] <= SAME_TIME_TOLERANCE_S:
             return None
-        velocity, sigma = apparent_velocity(np.array(young.times), np.array(young.points),
-                                            max(young.sigmas), self._dr_speed_sigma_mps(),
-                                            self.slam.noise.reference_dt_s)
+        velocity, sigma = self._apparent_velocity(young)
         speed = float(np.hypot(*velocity)) - crab
         if speed > self.mover_params.speed_threshold_mps \
                 and speed > self.mover_params.speed_sigmas * sigma:
