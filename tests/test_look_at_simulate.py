@@ -43,7 +43,12 @@ def nose_and_mover(outcome):
             off(bearing, course) > math.radians(45.0))
 
 
-@pytest.mark.parametrize("seed", [0, 3])
+# Seeds where the mover slides out of view as a threat. Since the young points' shared yaw error
+# is counted once (motion_evidence.shared_yaw_velocity_cov), two sightings convict the mover on the
+# multicopter too, and on seeds 1-3, 6 and 7 the velocity choice already flies round it before it
+# leaves the view (passed at 11.2-11.4 m, no look due); on 0, 4 and 5 it still becomes a threat
+# from out of view (looks of 111-114 steps, passed at 11.0-11.1 m).
+@pytest.mark.parametrize("seed", [0, 4])
 def test_the_nose_follows_a_crossing_mover_out_of_view_and_it_is_avoided(tmp_path, seed):
     outcome = run_once(crossing(tmp_path, look=True), seed)
     summary = outcome.summary
