@@ -28,7 +28,7 @@ from companion.core.guidance import GuidanceCommand, GuidanceParams, guide_apf, 
 from companion.core.arc import Motion, VehicleLimits
 from companion.core.look_at import LookAtParams, threat_to_watch
 from companion.core.movers import (MoverParams, MoverTracker, apparent_velocity, mover_growth,
-                                   mover_spread, world_measurement)
+                                   mover_spread, start_evidence, world_measurement)
 from companion.core.union import UnionParams, guide_union
 
 # An observation frame stamped at most this much after the last odometry is processed at once
@@ -564,8 +564,11 @@ class Navigator:
         used.add(report.landmark_index)
 
     def _demote(self, oid: int, obs: Observation, used: set[int] | None = None,
-                velocity: tuple[np.ndarray, float] | None = None) -> None:
-        """Marginalise landmark ``oid`` out of the map and start a mover track at ``obs``."""
+                velocity: tuple[np.ndarray, float] | None = None,
+                young: _Young | None = None) -> None:
+        """Marginalise landmark ``oid`` out of the map and start a mover track at ``obs``;
+        ``young``: the sightings whose fit gave ``velocity``, the track starting when the last
+        of them was seen, its position correlated with that velocity as the fit made it."""
         self._strikes.pop(oid, None)
         self._young.pop(oid, None)
         self.lifecycle.forget(oid)
@@ -576,7 +579,11 @@ class Navigator:
             used.clear()
             used.update(shifted)
         point, cov = self._world_point(obs)
-        self.movers.create(self.clock_s, point, cov, oid if oid >= 0 else None, velocity)
+        start_s, cross = self.clock_s, None
+        if young is not None and velocity is not None:
+            start_s = min(self.clock_s, young.times[-1])
+            cross = start_evidence(np.array(young.times), max(young.sigmas), velocity[1], cov)
+        self.movers.create(start_s, point, cov, oid if oid >= 0 else None, velocity, cross)
         self.movers_detected += 1
 
     def _judge_young(self) -> list[UpdateReport]:
@@ -593,17 +600,11 @@ class Navigator:
                 self._forget_young(oid)
                 detected.append(UpdateReport("expired", None, None, None, oid))
                 continue
-            # established only once watched over min_span_s (or the whole probation, if
-            # shorter): a mover seen for half a second and then out of view must not be taken
-            # for a static obstacle
-            if self.clock_s - young.times[0] > params.probation_s \
-                    and len(young.times) >= self.options.established_sightings \
-                    and young.times[-1] - young.times[0] >= min(params.min_span_s,
-                                                                params.probation_s):
-                del self._young[oid]             # watched long enough: established, static
-                continue
             # Only the motion test judges a young landmark: refused outliers early on are more
             # often a poor pose at the frame's time (a lost sample under packet loss) than motion.
+            # It runs before the probation ends, on every sighting: a mover seen for half a
+            # second, out of view, then seen again once the probation is over is convicted by
+            # its sightings, not established static (and then started from rest by its strikes)
             moving = False
             if young.times[-1] - young.times[0] >= params.min_span_s:
                 velocity, sigma = apparent_velocity(np.array(young.times), np.array(young.points),
@@ -620,8 +621,17 @@ class Navigator:
             if moving:
                 # the track starts at the velocity that convicted it: a mover that leaves the
                 # view soon after is then predicted where it goes, not left standing
-                self._demote(oid, young.last_obs, velocity=(velocity, sigma))
+                self._demote(oid, young.last_obs, velocity=(velocity, sigma), young=young)
                 detected.append(UpdateReport("mover_detected", None, None, None, oid))
+                continue
+            # established only once watched over min_span_s (or the whole probation, if
+            # shorter): a mover seen for half a second and then out of view must not be taken
+            # for a static obstacle
+            if self.clock_s - young.times[0] > params.probation_s \
+                    and len(young.times) >= self.options.established_sightings \
+                    and young.times[-1] - young.times[0] >= min(params.min_span_s,
+                                                                params.probation_s):
+                del self._young[oid]             # watched long enough: established, static
         return detected
 
     def _forget_young(self, oid: int) -> None:
