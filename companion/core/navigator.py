@@ -119,6 +119,7 @@ class Navigator:
         self.movers = MoverTracker(mover_params)
         self.mover_params = mover_params
         self._strikes: dict[int, int] = {}
+        self._strike_points: dict[int, _Young] = {}   # an old landmark's refused sightings
         self._dr_pose = np.array(start_pose, dtype=float)   # odometry only, never corrected
         self._young: dict[int, _Young] = {}
         self.movers_detected = 0
@@ -383,6 +384,7 @@ class Navigator:
                 slam.remove_landmark(slam.landmark_ids().index(key))
                 self._young.pop(key, None)
                 self._strikes.pop(key, None)
+                self._strike_points.pop(key, None)
                 reports.append(UpdateReport(action, None, None, None, key))
         return reports
 
@@ -401,13 +403,20 @@ class Navigator:
         self._note_young(oid, obs, report.action)
         if report.action != "outlier":
             self._strikes.pop(oid, None)
+            self._strike_points.pop(oid, None)
             return report
         self._strikes[oid] = self._strikes.get(oid, 0) + 1
+        if oid not in self._young:
+            self._add_sighting(self._strike_points.setdefault(oid, _Young()), obs)
         if self._strikes[oid] < self.mover_params.strikes_to_mover or oid in self._young:
             return report                    # a young landmark is judged by _judge_young
         # An old landmark refused twice in a row by the static map has started to move. Its
-        # refused observations never touched map or pose: take it out of the map, track it.
-        self._demote(oid, obs, used)
+        # refused observations never touched map or pose: take it out of the map, track it,
+        # at the velocity they show if they pass the motion test's speed test, else at rest.
+        strikes = self._strike_points.pop(oid, None)
+        shown = None if strikes is None else self._young_velocity(strikes, self._crab_speed())
+        self._demote(oid, obs, used, None if shown is None else shown[:2],
+                     None if shown is None else strikes)
         return UpdateReport("mover_detected", None, report.innovation, report.nis, oid)
 
     def _observe_anonymous(self, obs: Observation, used: set[int], plan=None) -> UpdateReport:
@@ -506,19 +515,23 @@ class Navigator:
             self._frame_hits.add(key)
         young = self._young.get(key)
         if young is not None and action in ("updated", "added", "outlier", "moved"):
-            young.times.append(self.clock_s)
-            young.points.append(place(self._young_pose(),
-                                      np.array([obs.range_m, obs.bearing_rad])))
-            # A frame placed with an interpolated heading (its own odometry sample was lost) or
-            # with a later one (it came late) may be misplaced sideways while the vehicle turns.
-            # The multicopter's points take the filter's yaw, as uncertain as its variance says.
-            yaw_sigma = math.sqrt(max(float(self.slam.pose_cov[2, 2]), 0.0)) \
-                if self.options.motion_model == "velocity_ned" else 0.0
-            point_sigma = self._point_sigma_m if obs.meas_cov is None else math.sqrt(
-                obs.meas_cov[0][0] + obs.range_m ** 2 * obs.meas_cov[1][1])
-            young.sigmas.append(math.hypot(point_sigma, obs.range_m * self._turn_rate_rad_s
-                                           * self._frame_timing_s, obs.range_m * yaw_sigma))
-            young.last_obs = obs
+            self._add_sighting(young, obs)
+
+    def _add_sighting(self, young: _Young, obs: Observation) -> None:
+        """Add an observation to sightings placed from the dead reckoning (``_young_pose``)."""
+        young.times.append(self.clock_s)
+        young.points.append(place(self._young_pose(),
+                                  np.array([obs.range_m, obs.bearing_rad])))
+        # A frame placed with an interpolated heading (its own odometry sample was lost) or
+        # with a later one (it came late) may be misplaced sideways while the vehicle turns.
+        # The multicopter's points take the filter's yaw, as uncertain as its variance says.
+        yaw_sigma = math.sqrt(max(float(self.slam.pose_cov[2, 2]), 0.0)) \
+            if self.options.motion_model == "velocity_ned" else 0.0
+        point_sigma = self._point_sigma_m if obs.meas_cov is None else math.sqrt(
+            obs.meas_cov[0][0] + obs.range_m ** 2 * obs.meas_cov[1][1])
+        young.sigmas.append(math.hypot(point_sigma, obs.range_m * self._turn_rate_rad_s
+                                       * self._frame_timing_s, obs.range_m * yaw_sigma))
+        young.last_obs = obs
 
     def _young_pose(self) -> np.ndarray:
         """The pose a young landmark's points are placed from: the dead reckoning (odometry only,
@@ -570,6 +583,7 @@ class Navigator:
         ``young``: the sightings whose fit gave ``velocity``, the track starting when the last
         of them was seen, its position correlated with that velocity as the fit made it."""
         self._strikes.pop(oid, None)
+        self._strike_points.pop(oid, None)
         self._young.pop(oid, None)
         self.lifecycle.forget(oid)
         index = self.slam.landmark_ids().index(oid)
@@ -637,6 +651,7 @@ class Navigator:
     def _forget_young(self, oid: int) -> None:
         """Marginalise the landmark on probation ``oid`` out of the map, without a track."""
         self._strikes.pop(oid, None)
+        self._strike_points.pop(oid, None)
         self._young.pop(oid, None)
         self.lifecycle.forget(oid)
         self.slam.remove_landmark(self.slam.landmark_ids().index(oid))

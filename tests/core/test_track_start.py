@@ -69,3 +69,28 @@ def test_a_track_started_from_a_fit_spreads_as_the_fit_does():
     var_without = tracker.state(without, t).position_cov[0, 0]
     assert var_without < var_with
     assert var_with >= 0.9 * fit_var
+
+
+def test_an_old_landmark_that_starts_moving_starts_its_track_at_the_velocity_its_strikes_show():
+    """A post watched past its probation, then moving off at 3 m/s: the refused sightings that
+    demote it show its velocity, and its track starts at it, not at rest."""
+    nav = make_navigator(load_scenario("config/scenarios/paper.yaml"))
+    pose = nav.slam.pose.copy()
+    post = pose[:2] + [45.0, 8.0]
+    velocity = np.array([0.0, -3.0])
+    moving_from = 5.0
+    track = None
+    for step in range(1, 40):
+        t = step * DT
+        nav.predict(SPEED, 0.0, DT)
+        pose = pose + [SPEED * DT, 0.0, 0.0]
+        if abs(t - moving_from) < 1e-6:
+            assert 7 in nav.slam.landmark_ids() and 7 not in nav._young     # established
+        where = post + velocity * max(t - moving_from, 0.0)
+        z = observe(pose, where)
+        nav.observe([Observation(float(z[0]), float(z[1]), 7)])
+        if len(nav.movers):
+            track = nav.movers.states(nav.clock_s)[0]
+            break
+    assert track is not None and track.updates == 0          # just demoted, by its strikes
+    assert np.hypot(*(track.velocity_ne_mps - velocity)) < 0.5
