@@ -5,7 +5,10 @@ outlier gate, so the update is refused and neither map nor pose moves) is declar
 marginalised out of the SLAM state and tracked here, in the world frame given the SLAM pose, by a
 constant-velocity Kalman filter (filterpy's KalmanFilter: a 4-state filter is small, and its
 textbook form is all it needs). Tracks are predicted forward between observations and deleted
-after ``coast_s`` without one.
+after ``coast_s`` without one. A track starts from the evidence that convicted it: at the last
+sighting, with the velocity its sightings' fit shows, that fit's standard error, and the last
+point's correlation with the slope (``start_evidence``); at rest with initial_speed_sigma_mps only
+when the sightings showed no velocity.
 """
 from __future__ import annotations
 
