@@ -5,7 +5,10 @@ outlier gate, so the update is refused and neither map nor pose moves) is declar
 marginalised out of the SLAM state and tracked here, in the world frame given the SLAM pose, by a
 constant-velocity Kalman filter (filterpy's KalmanFilter: a 4-state filter is small, and its
 textbook form is all it needs). Tracks are predicted forward between observations and deleted
-after ``coast_s`` without one.
+after ``coast_s`` without one. A track starts from the evidence that convicted it: at the last
+sighting, with the velocity its sightings' fit shows, that fit's standard error, and the last
+point's correlation with the slope (``start_evidence``); at rest with initial_speed_sigma_mps only
+when the sightings showed no velocity.
 """
 from __future__ import annotations
 
@@ -101,9 +104,12 @@ class MoverTracker:
 
     def create(self, t_s: float, position: np.ndarray, position_cov: np.ndarray,
                obstacle_id: int | None,
-               velocity: tuple[np.ndarray, float] | None = None) -> int:
+               velocity: tuple[np.ndarray, float] | None = None,
+               cross_cov: np.ndarray | None = None) -> int:
         """A new track at a world point; ``velocity``: a first estimate (2,) and its standard
-        error (m/s), else at rest with initial_speed_sigma_mps."""
+        error (m/s), else at rest with initial_speed_sigma_mps; ``cross_cov`` (2,2): the
+        covariance of the point's error with that estimate's (a fit through the point, as
+        ``start_evidence`` gives), else none."""
         kf = KalmanFilter(dim_x=4, dim_z=2)
         vel, vel_sigma = (np.zeros(2), self.params.initial_speed_sigma_mps) if velocity is None \
             else (np.asarray(velocity[0], dtype=float), float(velocity[1]))
@@ -111,6 +117,9 @@ class MoverTracker:
         kf.P = np.zeros((4, 4))
         kf.P[:2, :2] = position_cov
         kf.P[2:, 2:] = np.eye(2) * vel_sigma ** 2
+        if cross_cov is not None:
+            kf.P[:2, 2:] = cross_cov
+            kf.P[2:, :2] = np.asarray(cross_cov).T
         kf.H = np.hstack([np.eye(2), np.zeros((2, 2))])
         track_id = self._next_id
         self._next_id += 1
@@ -195,3 +204,21 @@ def apparent_velocity(times_s: np.ndarray, points_ne_m: np.ndarray, point_sigma_
     sigma = math.sqrt(point_sigma_m ** 2 / denom
                       + odometry_speed_sigma_mps ** 2 * odometry_dt_s / max(span, 1e-9))
     return velocity, sigma
+
+
+def start_evidence(times_s: np.ndarray, point_sigma_m: float, velocity_sigma_mps: float,
+                   position_cov: np.ndarray) -> np.ndarray:
+    """(2,2) the covariance of the last of a fit's points with the fitted velocity (what
+    ``apparent_velocity`` gives, standard error ``velocity_sigma_mps``): the slope leans on its
+    end points, so a track started at the last point with that velocity is a correlated
+    estimate; without it a coasting track's position spread would be too small. Scaled down if
+    needed so that the start's covariance stays positive definite."""
+    centred = np.asarray(times_s, dtype=float) - float(np.mean(times_s))
+    denom = float(centred @ centred)
+    if denom <= 0.0:
+        return np.zeros((2, 2))
+    cross = point_sigma_m ** 2 * float(centred[-1]) / denom
+    # |corr| < 1 against the smaller position variance and the velocity's
+    least = float(np.linalg.eigvalsh(0.5 * (position_cov + position_cov.T))[0])
+    bound = 0.95 * math.sqrt(max(least, 0.0)) * velocity_sigma_mps
+    return np.eye(2) * max(-bound, min(bound, cross))

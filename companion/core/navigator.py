@@ -28,7 +28,7 @@ from companion.core.guidance import GuidanceCommand, GuidanceParams, guide_apf, 
 from companion.core.arc import Motion, VehicleLimits
 from companion.core.look_at import LookAtParams, threat_to_watch
 from companion.core.movers import (MoverParams, MoverTracker, apparent_velocity, mover_growth,
-                                   mover_spread, world_measurement)
+                                   mover_spread, start_evidence, world_measurement)
 from companion.core.union import UnionParams, guide_union
 
 # An observation frame stamped at most this much after the last odometry is processed at once
@@ -128,6 +128,7 @@ class Navigator:
         self.movers = MoverTracker(mover_params)
         self.mover_params = mover_params
         self._strikes: dict[int, int] = {}
+        self._strike_points: dict[int, _Young] = {}   # an old landmark's refused sightings
         self._dr_pose = np.array(start_pose, dtype=float)   # odometry only, never corrected
         self._young: dict[int, _Young] = {}
         # the log of the factor by which the corrections so far scaled the filter's yaw error
@@ -417,6 +418,7 @@ class Navigator:
                 slam.remove_landmark(slam.landmark_ids().index(key))
                 self._young.pop(key, None)
                 self._strikes.pop(key, None)
+                self._strike_points.pop(key, None)
                 reports.append(UpdateReport(action, None, None, None, key))
         return reports
 
@@ -435,13 +437,20 @@ class Navigator:
         self._note_young(oid, obs, report.action)
         if report.action != "outlier":
             self._strikes.pop(oid, None)
+            self._strike_points.pop(oid, None)
             return report
         self._strikes[oid] = self._strikes.get(oid, 0) + 1
+        if oid not in self._young:
+            self._add_sighting(self._strike_points.setdefault(oid, _Young()), obs)
         if self._strikes[oid] < self.mover_params.strikes_to_mover or oid in self._young:
             return report                    # a young landmark is judged by _judge_young
         # An old landmark refused twice in a row by the static map has started to move. Its
-        # refused observations never touched map or pose: take it out of the map, track it.
-        self._demote(oid, obs, used)
+        # refused observations never touched map or pose: take it out of the map, track it,
+        # at the velocity they show if they pass the motion test's speed test, else at rest.
+        strikes = self._strike_points.pop(oid, None)
+        shown = None if strikes is None else self._young_velocity(strikes, self._crab_speed())
+        self._demote(oid, obs, used, None if shown is None else shown[:2],
+                     None if shown is None else strikes)
         return UpdateReport("mover_detected", None, report.innovation, report.nis, oid)
 
     def _observe_anonymous(self, obs: Observation, used: set[int], plan=None) -> UpdateReport:
@@ -540,26 +549,30 @@ class Navigator:
             self._frame_hits.add(key)
         young = self._young.get(key)
         if young is not None and action in ("updated", "added", "outlier", "moved"):
-            young.times.append(self.clock_s)
-            young.points.append(place(self._young_pose(),
-                                      np.array([obs.range_m, obs.bearing_rad])))
-            # A frame placed with an interpolated heading (its own odometry sample was lost) or
-            # with a later one (it came late) may be misplaced sideways while the vehicle turns.
-            # The multicopter's points take the filter's yaw, as uncertain as its variance says.
-            yaw_sigma = math.sqrt(max(float(self.slam.pose_cov[2, 2]), 0.0)) \
-                if self.options.motion_model == "velocity_ned" else 0.0
-            point_sigma = self._point_sigma_m if obs.meas_cov is None else math.sqrt(
-                obs.meas_cov[0][0] + obs.range_m ** 2 * obs.meas_cov[1][1])
-            timing_sigma = obs.range_m * self._turn_rate_rad_s * self._frame_timing_s
-            young.sigmas.append(math.hypot(point_sigma, timing_sigma, obs.range_m * yaw_sigma))
-            # the yaw's share is common to the frames (shared_yaw_velocity_cov), the rest is not
-            young.free_sigmas.append(math.hypot(point_sigma, timing_sigma, 0.0))
-            young.ranges.append(obs.range_m)
-            young.directions.append(float(self._young_pose()[2]) + obs.bearing_rad)
-            young.yaw_vars.append(yaw_sigma ** 2)
-            young.yaw_logs.append(self._yaw_transfer_log()
-                                  if self.options.motion_model == "velocity_ned" else 0.0)
-            young.last_obs = obs
+            self._add_sighting(young, obs)
+
+    def _add_sighting(self, young: _Young, obs: Observation) -> None:
+        """Add an observation to sightings placed from the dead reckoning (``_young_pose``)."""
+        young.times.append(self.clock_s)
+        young.points.append(place(self._young_pose(),
+                                  np.array([obs.range_m, obs.bearing_rad])))
+        # A frame placed with an interpolated heading (its own odometry sample was lost) or
+        # with a later one (it came late) may be misplaced sideways while the vehicle turns.
+        # The multicopter's points take the filter's yaw, as uncertain as its variance says.
+        yaw_sigma = math.sqrt(max(float(self.slam.pose_cov[2, 2]), 0.0)) \
+            if self.options.motion_model == "velocity_ned" else 0.0
+        point_sigma = self._point_sigma_m if obs.meas_cov is None else math.sqrt(
+            obs.meas_cov[0][0] + obs.range_m ** 2 * obs.meas_cov[1][1])
+        timing_sigma = obs.range_m * self._turn_rate_rad_s * self._frame_timing_s
+        young.sigmas.append(math.hypot(point_sigma, timing_sigma, obs.range_m * yaw_sigma))
+        # the yaw's share is common to the frames (shared_yaw_velocity_cov), the rest is not
+        young.free_sigmas.append(math.hypot(point_sigma, timing_sigma, 0.0))
+        young.ranges.append(obs.range_m)
+        young.directions.append(float(self._young_pose()[2]) + obs.bearing_rad)
+        young.yaw_vars.append(yaw_sigma ** 2)
+        young.yaw_logs.append(self._yaw_transfer_log()
+                              if self.options.motion_model == "velocity_ned" else 0.0)
+        young.last_obs = obs
 
     def _young_pose(self) -> np.ndarray:
         """The pose a young landmark's points are placed from: the dead reckoning (odometry only,
@@ -605,9 +618,13 @@ class Navigator:
         used.add(report.landmark_index)
 
     def _demote(self, oid: int, obs: Observation, used: set[int] | None = None,
-                velocity: tuple[np.ndarray, float] | None = None) -> None:
-        """Marginalise landmark ``oid`` out of the map and start a mover track at ``obs``."""
+                velocity: tuple[np.ndarray, float] | None = None,
+                young: _Young | None = None) -> None:
+        """Marginalise landmark ``oid`` out of the map and start a mover track at ``obs``;
+        ``young``: the sightings whose fit gave ``velocity``, the track starting when the last
+        of them was seen, its position correlated with that velocity as the fit made it."""
         self._strikes.pop(oid, None)
+        self._strike_points.pop(oid, None)
         self._young.pop(oid, None)
         self.lifecycle.forget(oid)
         index = self.slam.landmark_ids().index(oid)
@@ -617,7 +634,11 @@ class Navigator:
             used.clear()
             used.update(shifted)
         point, cov = self._world_point(obs)
-        self.movers.create(self.clock_s, point, cov, oid if oid >= 0 else None, velocity)
+        start_s, cross = self.clock_s, None
+        if young is not None and velocity is not None:
+            start_s = min(self.clock_s, young.times[-1])
+            cross = start_evidence(np.array(young.times), max(young.sigmas), velocity[1], cov)
+        self.movers.create(start_s, point, cov, oid if oid >= 0 else None, velocity, cross)
         self.movers_detected += 1
 
     def _judge_young(self) -> list[UpdateReport]:
@@ -633,17 +654,11 @@ class Navigator:
                 self._forget_young(oid)
                 detected.append(UpdateReport("expired", None, None, None, oid))
                 continue
-            # established only once watched over min_span_s (or the whole probation, if
-            # shorter): a mover seen for half a second and then out of view must not be taken
-            # for a static obstacle
-            if self.clock_s - young.times[0] > params.probation_s \
-                    and len(young.times) >= self.options.established_sightings \
-                    and young.times[-1] - young.times[0] >= min(params.min_span_s,
-                                                                params.probation_s):
-                del self._young[oid]             # watched long enough: established, static
-                continue
             # Only the motion test judges a young landmark: refused outliers early on are more
             # often a poor pose at the frame's time (a lost sample under packet loss) than motion.
+            # It runs before the probation ends, on every sighting: a mover seen for half a
+            # second, out of view, then seen again once the probation is over is convicted by
+            # its sightings, not established static (and then started from rest by its strikes)
             moving = False
             if young.times[-1] - young.times[0] >= params.min_span_s:
                 velocity, sigma = self._apparent_velocity(young)
@@ -658,13 +673,23 @@ class Navigator:
             if moving:
                 # the track starts at the velocity that convicted it: a mover that leaves the
                 # view soon after is then predicted where it goes, not left standing
-                self._demote(oid, young.last_obs, velocity=(velocity, sigma))
+                self._demote(oid, young.last_obs, velocity=(velocity, sigma), young=young)
                 detected.append(UpdateReport("mover_detected", None, None, None, oid))
+                continue
+            # established only once watched over min_span_s (or the whole probation, if
+            # shorter): a mover seen for half a second and then out of view must not be taken
+            # for a static obstacle
+            if self.clock_s - young.times[0] > params.probation_s \
+                    and len(young.times) >= self.options.established_sightings \
+                    and young.times[-1] - young.times[0] >= min(params.min_span_s,
+                                                                params.probation_s):
+                del self._young[oid]             # watched long enough: established, static
         return detected
 
     def _forget_young(self, oid: int) -> None:
         """Marginalise the landmark on probation ``oid`` out of the map, without a track."""
         self._strikes.pop(oid, None)
+        self._strike_points.pop(oid, None)
         self._young.pop(oid, None)
         self.lifecycle.forget(oid)
         self.slam.remove_landmark(self.slam.landmark_ids().index(oid))
