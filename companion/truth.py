@@ -48,6 +48,14 @@ class Clearance:
     surface_m: float
 
 
+def gauss_markov_step(value, sigma: float, tau_s: float, dt_s: float, rng: np.random.Generator,
+                      size: int | None = None):
+    """One ``dt_s`` step of a first-order Gauss-Markov process of stationary ``sigma`` and
+    correlation time ``tau_s`` (a GPS's or an AHRS's slow bias): one normal draw of ``size``."""
+    keep = math.exp(-dt_s / tau_s)
+    return keep * value + rng.normal(0.0, sigma * math.sqrt(1.0 - keep * keep), size)
+
+
 class TruthWorld:
     """The vehicle's true pose and speed, the obstacles' true positions, and the sensors."""
 
@@ -129,15 +137,14 @@ class TruthWorld:
         if self._gps_bias_m is None:
             self._gps_bias_m = rng.normal(0.0, noise.position_bias_sigma_m, 2)
         else:
-            keep = math.exp(-dt / tau)
-            self._gps_bias_m = keep * self._gps_bias_m + rng.normal(
-                0.0, noise.position_bias_sigma_m * math.sqrt(1.0 - keep * keep), 2)
+            self._gps_bias_m = gauss_markov_step(self._gps_bias_m, noise.position_bias_sigma_m,
+                                                 tau, dt, rng, 2)
         vel = self.vel_ne_mps + rng.normal(0.0, noise.velocity_sigma_mps, 2)
         fix = self.pose[:2] + self._gps_bias_m + rng.normal(0.0, noise.position_sigma_m, 2)
         if noise.yaw_bias_sigma_deg > 0.0:
-            keep = math.exp(-dt / noise.yaw_bias_tau_s)
-            self.yaw_bias_rad = keep * self.yaw_bias_rad + float(rng.normal(
-                0.0, math.radians(noise.yaw_bias_sigma_deg) * math.sqrt(1.0 - keep * keep)))
+            self.yaw_bias_rad = float(gauss_markov_step(
+                self.yaw_bias_rad, math.radians(noise.yaw_bias_sigma_deg), noise.yaw_bias_tau_s,
+                dt, rng))
         return CopterOdometry(
             float(vel[0]), float(vel[1]),
             true_yaw_rate_rad_s + rng.normal(0.0, math.radians(noise.yaw_rate_sigma_deg_s)),

@@ -40,6 +40,14 @@ class StepRecord:
     heading_noise_rad: float
 
 
+def gauss_markov_step(value: float, sigma: float, tau_s: float, dt_s: float,
+                      unit_draw: float) -> float:
+    """One ``dt_s`` step of a first-order Gauss-Markov process of stationary ``sigma`` and
+    correlation time ``tau_s``, driven by one standard normal draw."""
+    phi = math.exp(-dt_s / tau_s)
+    return phi * value + sigma * math.sqrt(1.0 - phi * phi) * unit_draw
+
+
 class PositionError:
     """GPS-like error of the reported position: white noise plus a slow Gauss-Markov bias."""
 
@@ -51,10 +59,9 @@ class PositionError:
         self.white_ne_m = [0.0, 0.0]
 
     def step(self, dt_s: float) -> None:
-        phi = math.exp(-dt_s / self.tau_s)
-        drive = self.bias_sigma_m * math.sqrt(1.0 - phi * phi)
         draws = self._rng.normal(0.0, 1.0, 4)      # always four, whatever the sigmas
-        self.bias_ne_m = [phi * b + drive * float(d) for b, d in zip(self.bias_ne_m, draws[:2])]
+        self.bias_ne_m = [gauss_markov_step(b, self.bias_sigma_m, self.tau_s, dt_s, float(d))
+                          for b, d in zip(self.bias_ne_m, draws[:2])]
         self.white_ne_m = [self.sigma_m * float(d) for d in draws[2:]]
 
     @property
@@ -73,9 +80,8 @@ class YawBias:
         self.bias_rad = float(rng.normal()) * sigma_rad
 
     def step(self, dt_s: float) -> None:
-        phi = math.exp(-dt_s / self.tau_s)
-        self.bias_rad = phi * self.bias_rad + self.sigma_rad * math.sqrt(1.0 - phi * phi) \
-            * float(self._rng.normal())
+        self.bias_rad = gauss_markov_step(self.bias_rad, self.sigma_rad, self.tau_s, dt_s,
+                                          float(self._rng.normal()))
 
 
 class Simulation:

@@ -91,7 +91,3 @@ class FlankScan:
             self._look = (stale[0][1], t_s)
         side = self._look[0]
         return wrap(course_rad + side * (p.margin_rad + p.inside_rad))
-
-    def cancel(self) -> None:
-        """The look was not flyable: judge afresh next decision."""
-        self._look = None

@@ -623,12 +623,7 @@ class Navigator:
         """Marginalise landmark ``oid`` out of the map and start a mover track at ``obs``;
         ``young``: the sightings whose fit gave ``velocity``, the track starting when the last
         of them was seen, its position correlated with that velocity as the fit made it."""
-        self._strikes.pop(oid, None)
-        self._strike_points.pop(oid, None)
-        self._young.pop(oid, None)
-        self.lifecycle.forget(oid)
-        index = self.slam.landmark_ids().index(oid)
-        self.slam.remove_landmark(index)
+        index = self._forget(oid)
         if used is not None:
             shifted = {i - 1 if i > index else i for i in used if i != index}
             used.clear()
@@ -651,7 +646,7 @@ class Navigator:
             # (movers.prune), not left to be flown round for ever
             if self.clock_s - young.times[-1] > params.coast_s \
                     and self._young_velocity(young, crab) is not None:
-                self._forget_young(oid)
+                self._forget(oid)
                 detected.append(UpdateReport("expired", None, None, None, oid))
                 continue
             # Only the motion test judges a young landmark: refused outliers early on are more
@@ -686,13 +681,16 @@ class Navigator:
                 del self._young[oid]             # watched long enough: established, static
         return detected
 
-    def _forget_young(self, oid: int) -> None:
-        """Marginalise the landmark on probation ``oid`` out of the map, without a track."""
+    def _forget(self, oid: int) -> int:
+        """Marginalise landmark ``oid`` out of the map with its probation and strikes, without
+        a track (``_demote`` starts one); the state index it had."""
         self._strikes.pop(oid, None)
         self._strike_points.pop(oid, None)
         self._young.pop(oid, None)
         self.lifecycle.forget(oid)
-        self.slam.remove_landmark(self.slam.landmark_ids().index(oid))
+        index = self.slam.landmark_ids().index(oid)
+        self.slam.remove_landmark(index)
+        return index
 
     def _apparent_velocity(self, young: _Young) -> tuple[np.ndarray, float]:
         """A landmark on probation's apparent velocity and its sigma (movers.apparent_velocity):
@@ -754,7 +752,8 @@ class Navigator:
         inflate = self.params.inflation_sigmas > 0
         rel_covs = slam.relative_covs() if inflate else None
         keys = slam.landmark_ids()
-        self._young_found = self._young_evidence()
+        if young_movers:
+            self._young_found = self._young_evidence()
         if not self.lifecycle.params.tentative_in_guidance:
             keep = [i for i, key in enumerate(keys) if not self.lifecycle.is_tentative(key)
                     or (young_movers and key in self._young_found)]

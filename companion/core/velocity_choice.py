@@ -79,17 +79,21 @@ def choose_velocity(pose: np.ndarray, goal_heading: float, goal_distance: float,
     goal_path: list = []      # the goal heading's path at cruise, when a decision rolls it out
     same_goal = float(candidates[0]) == goal_heading     # index 0 is the goal heading, wrapped
 
+    def flown_margin(headings: np.ndarray, speed: float):
+        """The commands' roll-outs and each one's worst margin (m): from the obstacles, and from
+        space never seen where that applies (_unseen_margin)."""
+        rolled = fly_out(position, motion, headings, np.full(len(headings), speed),
+                         union.lookahead_s, union.fov_rad)
+        margin = clearance(rolled, obstacles, radii, velocities, growth_mps, position)
+        unseen = _unseen_margin(seen, position, motion, headings, speed, union,
+                                params.safety_distance_m)
+        return rolled, margin if unseen is None else np.minimum(margin, unseen)
+
     def reachable(indices: np.ndarray, speed: float) -> np.ndarray:
         """Each command's worst margin (m), the previous heading's raised by the tolerance."""
-        rolled = fly_out(position, motion, candidates[indices], np.full(len(indices), speed),
-                         union.lookahead_s, union.fov_rad)
+        rolled, margin = flown_margin(candidates[indices], speed)
         if same_goal and speed == cruise and len(indices) == 1 and indices[0] == 0:
             goal_path.append(rolled)
-        margin = clearance(rolled, obstacles, radii, velocities, growth_mps, position)
-        if seen is not None and _stopping_m(speed, motion, union) \
-                > params.safety_distance_m:
-            margin = np.minimum(margin, _seen_margin(seen, position, motion, candidates[indices],
-                                                     speed, union, params.safety_distance_m))
         return margin + np.where(indices == 1, KEEP_TOLERANCE_M, 0.0)
 
     def flyable(indices: np.ndarray, speed: float) -> np.ndarray:
@@ -108,13 +112,7 @@ def choose_velocity(pose: np.ndarray, goal_heading: float, goal_distance: float,
         if blocked or _far_blocked(h, goal_heading, position, obstacles, radii, velocities,
                                    params.eta, clear_reach_m)[0]:
             return False
-        rolled = fly_out(position, motion, h, np.array([speed]), union.lookahead_s,
-                         union.fov_rad)
-        margin = clearance(rolled, obstacles, radii, velocities, growth_mps, position)[0]
-        if seen is not None and _stopping_m(speed, motion, union) > params.safety_distance_m:
-            margin = min(margin, _seen_margin(seen, position, motion, h, speed, union,
-                                              params.safety_distance_m)[0])
-        return bool(margin >= 0.0)
+        return bool(flown_margin(h, speed)[1][0] >= 0.0)
 
     def looked(chosen: GuidanceCommand, speed: float) -> GuidanceCommand:
         """``chosen``, or the flank scan's look instead: only cruising on a heading in view."""
@@ -224,15 +222,25 @@ def look_flyable(pose: np.ndarray, heading: float, speed: float, params: Guidanc
                  union: UnionParams, motion: Motion, seen: SeenSpace | None) -> bool:
     """With no obstacle near: a look heading (flank_scan.py) is flyable if it keeps d from
     space never seen (only where the stopping distance exceeds d, as choose_velocity)."""
-    if seen is None or _stopping_m(speed, motion, union) <= params.safety_distance_m:
-        return True
-    return bool(_seen_margin(seen, pose[:2], motion, np.array([heading]), speed, union,
-                             params.safety_distance_m)[0] >= 0.0)
+    unseen = _unseen_margin(seen, pose[:2], motion, np.array([heading]), speed, union,
+                            params.safety_distance_m)
+    return unseen is None or bool(unseen[0] >= 0.0)
 
 
 def _stopping_m(speed: float, motion: Motion, union: UnionParams) -> float:
     """How far the vehicle goes before a new obstacle enters the decision and it has stopped."""
     return speed * union.perception_delay_s + speed * speed / (2.0 * motion.max_accel_mps2)
+
+
+def _unseen_margin(seen: SeenSpace | None, position: np.ndarray, motion: Motion,
+                   headings: np.ndarray, speed: float, union: UnionParams,
+                   d: float) -> np.ndarray | None:
+    """_seen_margin where the check applies (a seen space, and a stopping distance beyond d:
+    an obstacle that shows up nearer is never nearer than d before the vehicle has stopped),
+    else None."""
+    if seen is None or _stopping_m(speed, motion, union) <= d:
+        return None
+    return _seen_margin(seen, position, motion, headings, speed, union, d)
 
 
 def _seen_margin(seen: SeenSpace, position: np.ndarray, motion: Motion, headings: np.ndarray,

@@ -1,32 +1,21 @@
 """The multicopter's motion test on a fast crossing mover seen only briefly (traffic worlds)."""
-import dataclasses
 import math
 
 import numpy as np
 import pytest
 
-from companion.config import Obstacle, load_scenario
-from companion.simulation import make_navigator
-from companion.truth import TruthWorld
+from companion.config import Obstacle
+from tests.core.copter_flight import copter_among, fly_north
 
 
 def brief_crossing(seed: int, frames: int = 7):
     """A copter flies north at 5 m/s; a mover crossing at 4.7 m/s, 35 m ahead on the left, is in
     the camera's frames for ``frames`` frames (1.4 s at 5 Hz for 7), then out of view for 3 s.
     The autopilot's yaw is noisy per sample (2 deg), as copter.yaml. The navigator after that."""
-    base = load_scenario("config/scenarios/copter.yaml")
-    mover = Obstacle(1, 50.0, -22.0, 1.5, -1.5, 4.45)
-    scenario = dataclasses.replace(base, world=dataclasses.replace(base.world, obstacles=(mover,)))
-    truth = TruthWorld(scenario, np.random.default_rng(seed))
-    nav = make_navigator(scenario)
-    first = truth.copter_odometry(0.0)
-    nav.on_velocity(0.0, first.vel_north_mps, first.vel_east_mps, first.yaw_rad,
-                    first.yaw_rate_rad_s)
+    truth, nav = copter_among((Obstacle(1, 50.0, -22.0, 1.5, -1.5, 4.45),), seed)
     seen = 0
     for step in range(1, 45):
-        odo = truth.step_copter(np.array([5.0, 0.0]), 0.0)
-        nav.on_velocity(truth.t_s, odo.vel_north_mps, odo.vel_east_mps, odo.yaw_rad,
-                        odo.yaw_rate_rad_s)
+        fly_north(truth, nav)
         if step % 2 == 0 and seen < frames:
             frame = truth.observe()
             seen += bool(frame)
@@ -50,20 +39,11 @@ def test_a_fast_crossing_mover_seen_for_a_second_is_tracked_not_mapped(seed):
 def fly_past_posts(seed: int):
     """The copter flies north at 5 m/s past three posts, turning its nose 20 deg left and back
     (the filter's yaw then moves while the posts are young); the navigator after 8 s."""
-    base = load_scenario("config/scenarios/copter.yaml")
     posts = (Obstacle(1, 45.0, -12.0, 2.0), Obstacle(2, 55.0, 14.0, 2.0),
              Obstacle(3, 70.0, -3.0, 2.0))
-    scenario = dataclasses.replace(base, world=dataclasses.replace(base.world, obstacles=posts))
-    truth = TruthWorld(scenario, np.random.default_rng(seed))
-    nav = make_navigator(scenario)
-    first = truth.copter_odometry(0.0)
-    nav.on_velocity(0.0, first.vel_north_mps, first.vel_east_mps, first.yaw_rad,
-                    first.yaw_rate_rad_s)
+    truth, nav = copter_among(posts, seed)
     for step in range(1, 80):
-        nose = -math.radians(20.0) if 15 <= step < 45 else 0.0
-        odo = truth.step_copter(np.array([5.0, 0.0]), nose)
-        nav.on_velocity(truth.t_s, odo.vel_north_mps, odo.vel_east_mps, odo.yaw_rad,
-                        odo.yaw_rate_rad_s)
+        fly_north(truth, nav, -math.radians(20.0) if 15 <= step < 45 else 0.0)
         if step % 2 == 0:
             nav.observe(truth.observe())
     return nav

@@ -1,16 +1,14 @@
 """The multicopter's young points share the filter's yaw error: two sightings 0.2 s apart must
 not count it twice (motion_evidence.shared_yaw_velocity_cov, navigator._yaw_transfer_log)."""
-import dataclasses
 import math
 
 import numpy as np
 import pytest
 
-from companion.config import Obstacle, load_scenario
+from companion.config import Obstacle
 from companion.core.geometry import wrap_angle
 from companion.core.motion_evidence import shared_yaw_velocity_cov
-from companion.simulation import make_navigator
-from companion.truth import TruthWorld
+from tests.core.copter_flight import copter_among, fly_north
 
 TRUE_VELOCITY = np.array([-1.5, 4.45])
 
@@ -31,19 +29,10 @@ def fly(seed: int, frames: int = 0, mover: Obstacle | None = None, steps: int = 
     """The copter flies north at 5 m/s (copter.yaml, per-sample yaw noise 2 deg) for 20 s with the
     filter's yaw converged after 10 s; with a mover crossing 35 m ahead on the left at 4.7 m/s,
     it returns the navigator as soon as ``frames`` frames have seen it."""
-    base = load_scenario("config/scenarios/copter.yaml")
-    obstacles = () if mover is None else (mover,)
-    scenario = dataclasses.replace(base, world=dataclasses.replace(base.world, obstacles=obstacles))
-    truth = TruthWorld(scenario, np.random.default_rng(seed))
-    nav = make_navigator(scenario)
-    first = truth.copter_odometry(0.0)
-    nav.on_velocity(0.0, first.vel_north_mps, first.vel_east_mps, first.yaw_rad,
-                    first.yaw_rate_rad_s)
+    truth, nav = copter_among(() if mover is None else (mover,), seed)
     seen, errors = 0, []
     for step in range(1, steps):
-        odo = truth.step_copter(np.array([5.0, 0.0]), 0.0)
-        nav.on_velocity(truth.t_s, odo.vel_north_mps, odo.vel_east_mps, odo.yaw_rad,
-                        odo.yaw_rate_rad_s)
+        fly_north(truth, nav)
         if step % 2 == 0:
             frame = truth.observe()
             nav.observe(frame)

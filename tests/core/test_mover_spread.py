@@ -96,7 +96,7 @@ def test_a_mover_on_probation_out_of_view_spreads_by_its_velocity_sigma_times_it
     for steps in (range(8, 9), range(9, 19)):       # 0.1 s, then 1.1 s after the last frame
         for step in steps:
             nav.on_odometry(step * 0.1, 5.0, 0.0)
-        obstacles, velocities, _, movers = nav.obstacles()
+        obstacles, velocities, _, movers = nav.obstacles(young_movers=True)
         growths.append(nav._young_motion(obstacles, velocities, None)[2])
         spreads.append(nav._spread(movers, len(obstacles), LIMITS.motion(5.0, 0.0)))
     keys = nav._guidance_keys
