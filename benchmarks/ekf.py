@@ -3,10 +3,13 @@ observations (sequential and batched), against their floors and the dense textbo
 (tests/core/dense_reference.py, the correctness oracle).
 
 The floor of an update is the cheapest correct in-place update of the same rank: the one BLAS
-call the update itself makes (EkfSlam._correct: dgemm, P -= [K B][B K]^T, inner dimension 4 for
-the rank-2 correction of one range-bearing observation), alone, on a matrix of the same size and
-layout. A frame of K observations is measured against the floor of one rank-2K pass (the same
-call with inner dimension 4K), which is what EkfSlam.update_batch makes.
+call the update itself makes (EkfSlam._joseph_rows: dgemm, P -= U (U M)^T with U = P H^T, inner
+dimension 2 for the rank-2 Joseph correction of one range-bearing observation), alone, on the
+filter's own matrix. A frame of K observations is measured against the floor of one rank-2K pass
+(the same call with inner dimension 2K), which is what EkfSlam.update_batch makes. (Until
+2026-12-02 the correction was written P -= [K B][B K]^T, inner dimension 4 and 4K, and so was the
+floor: the same time for one observation, where the pass is bound by memory, twice the time for a
+frame of 10, where it is bound by arithmetic.)
 """
 from __future__ import annotations
 
@@ -16,7 +19,8 @@ import time
 import numpy as np
 from scipy.linalg.blas import dgemm
 
-from companion.core.ekf_slam import AssociationGates, EkfSlam, Observation, SlamNoise
+from companion.core.ekf_slam import (LANDMARK_DIM, AssociationGates, EkfSlam, Observation,
+                                      SlamNoise)
 from companion.core.geometry import observe
 from tests.core.dense_reference import DenseEkfSlam
 
@@ -104,12 +108,12 @@ def measure(landmarks: int, reps: int) -> dict:
 def floor_call(slam: EkfSlam, observations: int, rng):
     """The update's own BLAS call alone, for a rank-2K correction (K observations), on the
     filter's own covariance (the same matrix, the same memory, updated in place through its
-    transpose as EkfSlam._correct does, with the same positional call), with Fortran-ordered
-    (N, 4K) operands as the update passes them (C-ordered ones would make dgemm copy them: a
-    slower, false floor). Signs alternate, so two calls put the matrix back (to rounding: the
-    operands are 1e-3, their products 1e-6) and the filter stays as it was."""
+    transpose as EkfSlam._joseph_pass does, with the same positional call), with
+    Fortran-ordered (N, 2K) operands as the update passes them (C-ordered ones would make dgemm
+    copy them: a slower, false floor). Signs alternate, so two calls put the matrix back (to
+    rounding: the operands are 1e-3, their products 1e-6) and the filter stays as it was."""
     cov = slam._cov_buf
-    n, width = cov.shape[0], 4 * observations
+    n, width = cov.shape[0], LANDMARK_DIM * observations
     left = np.asfortranarray(rng.normal(size=(n, width)) * 1e-3)
     right = np.asfortranarray(rng.normal(size=(n, width)) * 1e-3)
     sign = [1.0]

@@ -12,8 +12,10 @@ autopilot's horizontal position when it can be trusted.
 
 Costs: predict touches only the vehicle rows and columns, O(n) (the multicopter's, O(1)). An update
 is one gather of the five rows of P its H touches (contiguous, P is symmetric), 2x2 algebra in
-scalars, one small product for K, B and the mean's step, and one rank-4 in-place correction of the
-covariance (Joseph form), O(n^2) with a single BLAS pass over the matrix (_joseph_rows). filterpy's ExtendedKalmanFilter is not used for either: its predict forms
+scalars, one small product for the mean's step and the Joseph form's middle factor, and one rank-2
+in-place correction of the covariance, P -= U M U^T with U = P H^T (the Joseph form exactly, see
+_joseph_rows), O(n^2) in a single BLAS pass over the matrix of inner dimension 2 (2K for a frame
+of K observations). filterpy's ExtendedKalmanFilter is not used for either: its predict forms
 F P F^T densely (O(n^3)) and its update builds the dense (N, N) I - K H product. Nor is
 filterpy.stats.mahalanobis, which inverts one S per call: association here scores every landmark
 at once with closed-form 2x2 inverses (``nis_all``). filterpy does serve where it fits: the
@@ -30,10 +32,11 @@ import numpy as np
 from scipy.linalg.blas import dgemm
 from scipy.linalg.lapack import dposv
 
-from companion.core.geometry import place_jacobians, wrap_angle, wrap_angles
+from companion.core.geometry import TWO_PI, place_jacobians, wrap_angle, wrap_angles
 
 POSE_DIM = 3
 LANDMARK_DIM = 2
+_PI, _TWO_PI = math.pi, TWO_PI                  # wrap_angle's, written out on the hot path
 
 
 @dataclass(frozen=True)
@@ -135,13 +138,15 @@ class _Innovation(NamedTuple):
 
 def _joseph_coef2(s00, s01, s11, i00, i01, i11, v0, v1) -> np.ndarray:
     """C of EkfSlam._joseph_rows for a 2-dimensional measurement, in scalars (a dozen numpy
-    calls on 2x2 arrays cost more than the arithmetic): S = [[s00, s01], [s01, s11]], S^-1 the
-    same with i, innovation (v0, v1)."""
-    m00, m01 = s00 * i00 + s01 * i01, s00 * i01 + s01 * i11              # S S^-1
+    calls on 2x2 arrays cost more than the arithmetic): S = [[s00, s01], [s01, s11]], G = S^-1
+    the same with i, innovation (v0, v1). Rows: M = 2G - G S G (symmetric by construction: its
+    off-diagonal entry computed once), then (G v)^T."""
+    m00, m01 = s00 * i00 + s01 * i01, s00 * i01 + s01 * i11              # S G
     m10, m11 = s01 * i00 + s11 * i01, s01 * i01 + s11 * i11
-    return np.array((i00, i01, i01, i11, 1.0 - 0.5 * m00, -0.5 * m01,   # flat: half the time
-                     -0.5 * m10, 1.0 - 0.5 * m11, i00, i01, i01, i11,    # of nested tuples
-                     i00 * v0 + i01 * v1, i01 * v0 + i11 * v1)).reshape(7, 2)
+    j01 = 2.0 * i01 - (i00 * m01 + i01 * m11)
+    return np.array((2.0 * i00 - (i00 * m00 + i01 * m10), j01,          # flat: half the time
+                     j01, 2.0 * i11 - (i01 * m01 + i11 * m11),          # of nested tuples
+                     i00 * v0 + i01 * v1, i01 * v0 + i11 * v1)).reshape(3, 2)
 
 
 _STATE_COLUMNS: dict[int, np.ndarray] = {}
@@ -169,32 +174,47 @@ _new_object = object.__new__
 
 
 _FRAME_LAYOUTS: dict[int, tuple] = {}
-_IDENTITIES: dict[int, np.ndarray] = {}
+_IDENTITIES: dict[tuple, np.ndarray] = {}
 
 
-def _frame_jacobian_layout(k_obs: int) -> tuple[np.ndarray, np.ndarray, int]:
-    """Where each observation's 2x2 landmark block sits in a frame's dense H (2K, 3+2K): row
-    and column indices in the order of the (K, 2, 2) blocks flattened, and the width."""
+def _frame_layout(k_obs: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A frame of K observations' dense H (2K, 3+2K), on the pose and the K landmarks' states:
+    its template (zeros, -1 on the yaw column of every bearing row), the flat positions of the
+    eight entries each observation sets (-a, -b, a, b on its range row's pose and landmark
+    columns, then c, -e, -c, e on its bearing row's), and the flat positions of each
+    observation's s00, s01, s11 in S (2K, 2K). Kept per K, read-only."""
     layout = _FRAME_LAYOUTS.get(k_obs)
     if layout is None:
-        k, i, j = np.meshgrid(np.arange(k_obs), np.arange(2), np.arange(2), indexing="ij")
-        layout = ((2 * k + i).ravel(), (POSE_DIM + 2 * k + j).ravel(),
-                  POSE_DIM + LANDMARK_DIM * k_obs)
-        for index in layout[:2]:
-            index.flags.writeable = False
+        width, put, gate = POSE_DIM + LANDMARK_DIM * k_obs, [], []
+        template = np.zeros((2 * k_obs, width))
+        template[1::2, 2] = -1.0
+        for k in range(k_obs):
+            for row in (2 * k * width, (2 * k + 1) * width):
+                col = row + POSE_DIM + 2 * k
+                put += (row, row + 1, col, col + 1)
+            diag = 2 * k * (2 * k_obs + 1)
+            gate += (diag, diag + 1, diag + 2 * k_obs + 1)
+        layout = (template, np.array(put), np.array(gate))
+        for array in layout:
+            array.flags.writeable = False
         _FRAME_LAYOUTS[k_obs] = layout
     return layout
+
+
+def _identity(k: int, scale: float = 1.0) -> np.ndarray:
+    """``scale`` times the (k, k) identity, kept per (k, scale), read-only."""
+    identity = _IDENTITIES.get((k, scale))
+    if identity is None:
+        identity = _IDENTITIES.setdefault((k, scale), np.eye(k) * scale)
+        identity.flags.writeable = False
+    return identity
 
 
 def _spd_inverse(s: np.ndarray) -> np.ndarray:
     """S^-1 of a symmetric positive definite S by Cholesky (LAPACK dposv on the identity: one
     call, where numpy.linalg.inv's checks and LU cost several times more for a frame's S);
     numpy.linalg.inv if S is not positive definite to rounding."""
-    identity = _IDENTITIES.get(len(s))
-    if identity is None:
-        identity = _IDENTITIES.setdefault(len(s), np.eye(len(s)))
-        identity.flags.writeable = False
-    _, inverse, info = dposv(s, identity)
+    _, inverse, info = dposv(s, _identity(len(s)))
     return inverse if info == 0 else np.linalg.inv(s)
 
 
@@ -207,7 +227,7 @@ class EkfSlam:
     def __init__(self, pose: Sequence[float], pose_cov: np.ndarray, noise: SlamNoise,
                  gates: AssociationGates = AssociationGates()) -> None:
         self.noise = noise
-        self.gates = gates
+        self.gates = gates                      # sets the thresholds the hot path reads
         self._meas_cov = noise.measurement_cov()
         self._meas_cov_rows = tuple(map(tuple, self._meas_cov.tolist()))
         # Exact-size, C-contiguous arrays: the update writes the covariance in place through
@@ -221,6 +241,15 @@ class EkfSlam:
         self._scratch: tuple = (None,)          # see _make_scratch
 
     # ----------------------------------------------------------------- views
+    @property
+    def gates(self) -> AssociationGates:
+        return self._gates
+
+    @gates.setter
+    def gates(self, gates: AssociationGates) -> None:
+        self._gates = gates
+        self._outlier_nis, self._pose_nis = gates.outlier_nis, gates.pose_nis
+
     @property
     def mean(self) -> np.ndarray:
         """The state mean (3+2n,), a view: do not modify."""
@@ -356,8 +385,9 @@ class EkfSlam:
             action = "yaw_reset"
         s = cov.item(2, 2) + var_r                          # H = e_2: H P is row 2 of P
         s_inv = 1.0 / s
-        coef = np.array(((s_inv,), (1.0 - 0.5 * s * s_inv,), (s_inv,), (s_inv * innovation,)))
-        self._apply_rows(coef.dot(cov[2:3]), 1)
+        hp = cov[2:3].copy()                                # not a view: the pass writes P
+        coef = np.array(((2.0 * s_inv - s_inv * s * s_inv,), (s_inv * innovation,)))
+        self._joseph_pass(hp, coef.dot(hp), 1)
         return UpdateReport(action, None, (innovation,), nis, None)
 
     def update_position(self, north_m: float, east_m: float, sigma_m: float,
@@ -376,7 +406,8 @@ class EkfSlam:
         nis = i00 * v0 * v0 + 2.0 * i01 * v0 * v1 + i11 * v1 * v1
         if not nis <= gate_nis:
             return UpdateReport("outlier", None, (v0, v1), nis, None)
-        self._apply_rows(_joseph_coef2(s00, s01, s11, i00, i01, i11, v0, v1).dot(cov[0:2]), 2)
+        hp = cov[0:2].copy()                                # not a view: the pass writes P
+        self._joseph_pass(hp, _joseph_coef2(s00, s01, s11, i00, i01, i11, v0, v1).dot(hp), 2)
         return UpdateReport("position", None, (v0, v1), nis, None)
 
     # ---------------------------------------------------------------- update
@@ -400,14 +431,15 @@ class EkfSlam:
         covariance kept exact for that suboptimal gain (Joseph form). The navigator uses it
         while a new landmark is on probation: if it turns out to move, it never touched the pose.
         """
-        z = (float(obs.range_m), float(obs.bearing_rad))     # numpy scalars cost 3x in arithmetic
-        r = obs.meas_cov
         if obs.obstacle_id is not None:
             index = self._id_to_index.get(obs.obstacle_id)
-            if index is None:
-                return self._add(np.array(z), obs.obstacle_id,
-                                 None if r is None else np.asarray(r, dtype=float))
-            return self._update_known(z, index, r, obs.obstacle_id, landmark_only)
+            if index is not None:
+                return self._update_known(obs, index, landmark_only)
+            return self._add(np.array((float(obs.range_m), float(obs.bearing_rad))),
+                             obs.obstacle_id, None if obs.meas_cov is None
+                             else np.asarray(obs.meas_cov, dtype=float))
+        z = (float(obs.range_m), float(obs.bearing_rad))     # numpy scalars cost 3x in arithmetic
+        r = obs.meas_cov
         if r is not None:
             r = np.asarray(r, dtype=float)
         if self.landmark_count == 0:
@@ -441,7 +473,7 @@ class EkfSlam:
         A separate path from :meth:`update` / :meth:`update_frame` (which stay as they are):
         K observations of K distinct mapped landmarks become one 2K-dimensional measurement,
         so the covariance takes one rank-2K Joseph correction in one BLAS pass (dgemm with
-        inner dimension 4K) instead of K passes. Every Jacobian is taken at the prior mean (the
+        inner dimension 2K) instead of K passes. Every Jacobian is taken at the prior mean (the
         sequential path relinearises after each observation): equal in the linear case, a
         second-order difference here. Each observation is gated alone (its own 2x2 block of
         the joint S, as :meth:`update` gates it) before the joint update; unknown ids become
@@ -450,82 +482,83 @@ class EkfSlam:
         Returns one report per observation, in order. Raises ValueError for an observation
         without an id or two observations of one landmark.
         """
-        known, reports = [], [None] * len(observations)
+        known, indices, z = [], [], []
+        id_to_index = self._id_to_index
         for k, obs in enumerate(observations):
             if obs.obstacle_id is None:
                 raise ValueError("update_batch needs obstacle ids (use update_frame without)")
-            index = self._id_to_index.get(obs.obstacle_id)
+            index = id_to_index.get(obs.obstacle_id)
             if index is not None:
-                known.append((k, index))
-        indices = [index for _, index in known]
+                known.append(k)
+                indices.append(index)
+                z.append((float(obs.range_m), float(obs.bearing_rad)))
         if len(set(indices)) != len(indices):
             raise ValueError("update_batch: two observations of one landmark in one frame")
+        reports = [None] * len(observations)
         if known:
-            z = np.array([[observations[k].range_m, observations[k].bearing_rad]
-                          for k, _ in known])
-            for (k, index), report in zip(known, self._correct_batch(z, np.array(indices))):
-                reports[k] = UpdateReport(report[0], index, report[1], report[2],
-                                          observations[k].obstacle_id)
+            for k, index, (action, innovation, nis) in zip(known, indices,
+                                                           self._correct_batch(z, indices)):
+                reports[k] = _report(action, index, innovation, nis, observations[k].obstacle_id)
         for k, obs in enumerate(observations):
             if reports[k] is None:
                 reports[k] = self._add(np.array([obs.range_m, obs.bearing_rad]), obs.obstacle_id)
         return reports
 
-    def _correct_batch(self, z: np.ndarray, indices: np.ndarray) -> list[tuple]:
-        """Joint Joseph update of the landmarks ``indices`` (K,) measured as ``z`` (K, 2).
+    def _correct_batch(self, z: Sequence[tuple], indices: Sequence[int]) -> list[tuple]:
+        """Joint Joseph update of the landmarks ``indices`` (K,) measured as ``z`` (K (range,
+        bearing) pairs).
 
-        H is (2K, 3+2K) on the pose and the K landmarks' columns, but each row touches five
-        states only, so H P (2K, N) is taken sparse: the pose's three rows of P times H's pose
-        block plus each landmark's two rows times its own 2x2 block (10 K N products instead
-        of the dense (2K)(3+2K) N). S (2K, 2K) from those columns of H P. S^-1 by a Cholesky
-        solve (S is symmetric positive definite). Returns (action, innovation, NIS) per
-        observation.
+        H is (2K, 3+2K) on the pose and the K landmarks' columns; each row touches five states
+        only, but one dense product H P (2K, N) of the 3+2K rows of P it touches is one call,
+        where the sparse sum took four (the arithmetic is a few hundred thousand products
+        either way, against the pass's 2K N^2). The innovations, H's entries and each
+        observation's gate in scalars, per observation (K numpy calls on K-vectors cost more).
+        S (2K, 2K) from those columns of H P, S^-1 by a Cholesky solve (S is symmetric positive
+        definite). Returns (action, innovation, NIS) per observation.
         """
         mean, cov, k_obs = self._mean_buf, self._cov_buf, len(indices)
-        dense_rows, dense_cols, width = _frame_jacobian_layout(k_obs)
-        cols = np.empty(width, dtype=np.intp)                       # the states H touches
-        cols[:POSE_DIM] = (0, 1, 2)
-        cols[POSE_DIM::2] = POSE_DIM + LANDMARK_DIM * indices
-        cols[POSE_DIM + 1::2] = cols[POSE_DIM::2] + 1
-        delta = mean.take(cols[POSE_DIM:]).reshape(k_obs, 2) - mean[:2]   # (K, 2): dn, de
-        d_north, d_east = delta[:, 0], delta[:, 1]
-        range_sq = d_north * d_north + d_east * d_east
-        range_m = np.sqrt(range_sq)
-        innovation = np.empty((k_obs, 2))
-        innovation[:, 0] = z[:, 0] - range_m
-        innovation[:, 1] = wrap_angles(z[:, 1] - (np.arctan2(d_east, d_north) - mean[2]))
-        # H's blocks per observation: landmark [[a, b], [-c, e]], pose [[-a, -b, 0], [c, -e, -1]]
-        # with a = dn/r, b = de/r, c = de/r^2, e = dn/r^2
-        jac_lm = np.empty((k_obs, 2, 2))
-        jac_lm[:, 0, :] = delta / range_m[:, None]
-        jac_lm[:, 1, 0] = -d_east / range_sq
-        jac_lm[:, 1, 1] = d_north / range_sq
-        jac = np.zeros((2 * k_obs, width))                          # H on (pose, landmarks)
-        jac[dense_rows, dense_cols] = jac_lm.ravel()
-        jac[:, :2] = -jac_lm.reshape(2 * k_obs, 2)
-        jac[1::2, 2] = -1.0
-        p_rows = cov.take(cols, axis=0)                             # the rows of P H touches
-        hp = np.matmul(jac_lm, p_rows[POSE_DIM:].reshape(k_obs, 2, -1)).reshape(2 * k_obs, -1)
-        hp += jac[:, :POSE_DIM].dot(p_rows[:POSE_DIM])              # H P, (2K, N)
+        template, put, gate = _frame_layout(k_obs)
+        cols = [0, 1, 2]                                            # the states H touches
+        for index in indices:
+            cols += (POSE_DIM + LANDMARK_DIM * index, POSE_DIM + LANDMARK_DIM * index + 1)
+        cols = np.array(cols)
+        states = mean.take(cols).tolist()
+        north, east, yaw = states[:POSE_DIM]
+        entries, innovation = [], []
+        for k, (range_obs, bearing_obs) in enumerate(z):
+            d_north = states[POSE_DIM + 2 * k] - north
+            d_east = states[POSE_DIM + 2 * k + 1] - east
+            range_sq = d_north * d_north + d_east * d_east
+            range_m = math.sqrt(range_sq)
+            a, b = d_north / range_m, d_east / range_m
+            c, e = d_east / range_sq, d_north / range_sq
+            entries += (-a, -b, a, b, c, -e, -c, e)
+            innovation += (range_obs - range_m,
+                           wrap_angle(bearing_obs - (math.atan2(d_east, d_north) - yaw)))
+        jac = template.copy()                                       # H on (pose, landmarks)
+        jac.put(put, entries)
+        hp = jac.dot(cov.take(cols, axis=0))                        # H P, (2K, N)
         s = hp.take(cols, axis=1).dot(jac.T)
         s += s.T
         s *= 0.5
         s += self._block_meas_cov(k_obs)
         # each observation gated alone, on its own 2x2 block of S
-        diag, off = s.diagonal(), s.diagonal(1)[::2]
-        s00, s11 = diag[0::2], diag[1::2]
-        v_r, v_b = innovation[:, 0], innovation[:, 1]
-        nis = (s11 * v_r * v_r - 2.0 * off * v_r * v_b + s00 * v_b * v_b) / (s00 * s11 - off * off)
-        ok = nis <= self.gates.outlier_nis
-        out = [("updated" if good else "outlier", (v[0], v[1]), q)
-               for good, v, q in zip(ok.tolist(), innovation.tolist(), nis.tolist())]
-        if not ok.any():
+        blocks, outlier_nis, out, ok = s.take(gate).tolist(), self.gates.outlier_nis, [], []
+        for k in range(k_obs):
+            s00, s01, s11 = blocks[3 * k:3 * k + 3]
+            v_r, v_b = innovation[2 * k], innovation[2 * k + 1]
+            nis = (s11 * v_r * v_r - 2.0 * s01 * v_r * v_b + s00 * v_b * v_b) / (
+                s00 * s11 - s01 * s01)
+            ok.append(nis <= outlier_nis)
+            out.append(("updated" if ok[-1] else "outlier", (v_r, v_b), nis))
+        if not any(ok):
             return out
-        if not ok.all():
+        if not all(ok):
             keep = np.repeat(ok, 2)
-            hp, s, innovation = hp[keep], s[np.ix_(keep, keep)], innovation[ok]
+            hp, s = hp[keep], s[np.ix_(keep, keep)]
+            innovation = np.array(innovation)[keep]
         # one rank-2K Joseph correction, the same single dgemm pass as one observation's
-        self._joseph_rows(hp, s, _spd_inverse(s), innovation.ravel())
+        self._joseph_rows(hp, s, _spd_inverse(s), innovation)
         return out
 
     def _block_meas_cov(self, k_obs: int) -> np.ndarray:
@@ -655,15 +688,19 @@ class EkfSlam:
         return _Innovation((innov_r, innov_b), ((s00, s01), (s01, s11)),
                            ((i00, i01), (i01, i11)), hp, nis)
 
-    def _update_known(self, z: tuple, index: int, meas_cov, obstacle_id: int,
-                      landmark_only: bool) -> UpdateReport:
+    def _update_known(self, obs: Observation, index: int, landmark_only: bool) -> UpdateReport:
         """:meth:`update` of an observation its id has associated with landmark ``index``:
         :meth:`_innovation`, the gates and :meth:`_correct_pose` in one function, the navigator's
         hot path (their calls and the _Innovation between them cost about 2 us in 15 of
         non-BLAS work at 200 landmarks). The arithmetic is theirs, line for line, so the result
         is bit-identical (tests/core/test_ekf_update_paths.py checks it against update_landmark,
-        which goes through them); falls back to them off the straight path."""
-        mean, cov = self._mean_buf, self._cov_buf
+        which goes through them); falls back to them off the straight path. Right after the
+        previous BLAS pass every step here costs about 3 times its warm time, so what is cheap
+        warm counts: H and [M; (G v)^T] filled into arrays kept in the scratch, wrap_angle and
+        _report written out, the gates' thresholds read from attributes (not the property)."""
+        mean, cov, scratch = self._mean_buf, self._cov_buf, self._scratch
+        if scratch[0] is not cov:
+            scratch = self._make_scratch()
         cols = _STATE_COLUMNS.get(index)
         if cols is None:
             cols = _observed_states(index)
@@ -672,13 +709,15 @@ class EkfSlam:
         d_east -= east
         range_sq = d_north * d_north + d_east * d_east
         range_m = math.sqrt(range_sq)
-        v0 = z[0] - range_m
-        v1 = wrap_angle(z[1] - (math.atan2(d_east, d_north) - yaw))
+        v0 = float(obs.range_m) - range_m                  # numpy scalars cost 3x in arithmetic
+        v1 = (float(obs.bearing_rad) - (math.atan2(d_east, d_north) - yaw) + _PI) % _TWO_PI - _PI
         a, b = d_north / range_m, d_east / range_m
         c, e = d_east / range_sq, d_north / range_sq
-        hp = np.array(((-a, -b, 0.0, a, b), (c, -e, -1.0, -c, e))).dot(cov.take(cols, axis=0))
+        scratch[6][:] = (-a, -b, 0.0, a, b, c, -e, -1.0, -c, e)           # H on the 5 states
+        hp = scratch[5].dot(cov.take(cols, axis=0))
         (h00, h01, h02, h03, h04), (h10, h11, h12, h13, h14) = hp.take(cols, axis=1).tolist()
         u0, u1, w0, w1 = h03 - h00, h13 - h10, h04 - h01, h14 - h11
+        meas_cov = obs.meas_cov
         if meas_cov is None:
             (r00, r01), (_, r11) = self._meas_cov_rows
         else:
@@ -689,35 +728,31 @@ class EkfSlam:
         det = s00 * s11 - s01 * s01
         i00, i01, i11 = s11 / det, -s01 / det, s00 / det
         nis = i00 * v0 * v0 + 2.0 * i01 * v0 * v1 + i11 * v1 * v1
-        gates = self.gates
-        if nis > gates.outlier_nis:
-            return UpdateReport("outlier", index, (v0, v1), nis, obstacle_id)
-        if landmark_only or nis > gates.pose_nis:
+        if nis > self._outlier_nis:
+            return UpdateReport("outlier", index, (v0, v1), nis, obs.obstacle_id)
+        if landmark_only or nis > self._pose_nis:
             return self._correct(_Innovation((v0, v1), ((s00, s01), (s01, s11)),
                                              ((i00, i01), (i01, i11)), hp, nis),
-                                 index, obstacle_id, True)
-        m00, m01 = s00 * i00 + s01 * i01, s00 * i01 + s01 * i11              # S S^-1
+                                 index, obs.obstacle_id, True)
+        m00, m01 = s00 * i00 + s01 * i01, s00 * i01 + s01 * i11              # S G
         m10, m11 = s01 * i00 + s11 * i01, s01 * i01 + s11 * i11
-        coef = np.array((i00, i01, i01, i11, 1.0 - 0.5 * m00, -0.5 * m01,
-                         -0.5 * m10, 1.0 - 0.5 * m11, i00, i01, i01, i11,
-                         i00 * v0 + i01 * v1, i01 * v0 + i11 * v1)).reshape(7, 2)
-        scratch = self._scratch
-        if scratch[0] is not cov:
-            scratch = self._make_scratch()
-        np.dot(coef, hp, out=scratch[1])
+        j01 = 2.0 * i01 - (i00 * m01 + i01 * m11)                           # M = 2G - G S G
+        scratch[8][:] = (2.0 * i00 - (i00 * m00 + i01 * m10), j01,
+                         j01, 2.0 * i11 - (i01 * m01 + i11 * m11),
+                         i00 * v0 + i01 * v1, i01 * v0 + i11 * v1)
+        np.dot(scratch[7], hp, out=scratch[1])
         mean += scratch[2]
-        mean[2] = wrap_angle(mean.item(2))
-        dgemm(-1.0, scratch[3], scratch[4], 1.0, scratch[5], 0, 1, 1)
-        return _report("updated", index, (v0, v1), nis, obstacle_id)
+        mean[2] = (mean.item(2) + _PI) % _TWO_PI - _PI                      # wrap_angle
+        dgemm(-1.0, hp.T, scratch[3], 1.0, scratch[4], 0, 1, 1)
+        report = _new_object(UpdateReport)                  # _report, written out
+        report.__dict__.update(action="updated", landmark_index=index, innovation=(v0, v1),
+                               nis=nis, obstacle_id=obs.obstacle_id)
+        return report
 
     def _correct(self, parts: "_Innovation", index: int, obstacle_id: int | None,
                  landmark_only: bool = False) -> UpdateReport:
-        """Kalman update of one landmark; Joseph form, applied in place as one rank-4 correction.
-
-        Joseph: P <- (I-KH) P (I-KH)^T + K R K^T = P - K PHt^T - PHt K^T + K S K^T
-                  = P - (K B^T + B K^T) with B = PHt - K S / 2,
-        which stays symmetric positive semi-definite to rounding even when K is slightly off.
-        """
+        """Kalman update of one landmark; Joseph form, applied in place as one rank-2 correction
+        (:meth:`_joseph_rows`), or the landmark-only (Schmidt) update."""
         if landmark_only:
             self._correct_landmark_only(index, np.array(parts.innovation), np.array(parts.s),
                                         np.array(parts.s_inv), parts.hp.T)
@@ -726,19 +761,22 @@ class EkfSlam:
 
     def _correct_pose(self, parts: "_Innovation", index: int,
                       obstacle_id: int | None) -> UpdateReport:
-        """:meth:`_correct` of the whole state (not landmark-only): C H P with C of
-        :func:`_joseph_coef2` written out here, one call fewer on the navigator's path."""
+        """:meth:`_correct` of the whole state (not landmark-only): :meth:`_joseph_rows` for a
+        2-dimensional measurement, M of :func:`_joseph_coef2` written out here, one call fewer
+        on the navigator's path."""
         (s00, s01), (_, s11) = parts.s
         (i00, i01), (_, i11) = parts.s_inv
         v0, v1 = parts.innovation
-        m00, m01 = s00 * i00 + s01 * i01, s00 * i01 + s01 * i11              # S S^-1
+        m00, m01 = s00 * i00 + s01 * i01, s00 * i01 + s01 * i11              # S G
         m10, m11 = s01 * i00 + s11 * i01, s01 * i01 + s11 * i11
-        coef = np.array((i00, i01, i01, i11, 1.0 - 0.5 * m00, -0.5 * m01,
-                         -0.5 * m10, 1.0 - 0.5 * m11, i00, i01, i01, i11,
-                         i00 * v0 + i01 * v1, i01 * v0 + i11 * v1)).reshape(7, 2)
-        # The rank-2 path, the navigator's: C H P into a buffer kept with the covariance, whose
-        # views dgemm and the mean take are made once per size (each numpy call after the BLAS
-        # pass, which has just streamed P through the cache, costs about 3x its warm time).
+        j01 = 2.0 * i01 - (i00 * m01 + i01 * m11)                           # M = 2G - G S G
+        coef = np.array((2.0 * i00 - (i00 * m00 + i01 * m10), j01,
+                         j01, 2.0 * i11 - (i01 * m01 + i11 * m11),
+                         i00 * v0 + i01 * v1, i01 * v0 + i11 * v1)).reshape(3, 2)
+        # The rank-2 path, the navigator's: [M; (G v)^T] H P into a buffer kept with the
+        # covariance, whose views dgemm and the mean take are made once per size (each numpy
+        # call after the BLAS pass, which has just streamed P through the cache, costs about 3x
+        # its warm time).
         scratch = self._scratch
         if scratch[0] is not self._cov_buf:
             scratch = self._make_scratch()
@@ -746,48 +784,52 @@ class EkfSlam:
         mean = self._mean_buf
         mean += scratch[2]
         mean[2] = wrap_angle(mean.item(2))
-        dgemm(-1.0, scratch[3], scratch[4], 1.0, scratch[5], 0, 1, 1)
+        dgemm(-1.0, parts.hp.T, scratch[3], 1.0, scratch[4], 0, 1, 1)
         return _report("updated", index, parts.innovation, parts.nis, obstacle_id)
 
     def _make_scratch(self) -> tuple:
-        """(P, rows (7, N), the mean's step row, [B K] and [K B] as Fortran (N, 4) views, P^T)
-        for :meth:`_correct`'s rank-2 pass, made again whenever P is reallocated."""
-        rows = np.empty((3 * LANDMARK_DIM + 1, self._cov_buf.shape[0]))
-        self._scratch = (self._cov_buf, rows, rows[3 * LANDMARK_DIM],
-                         rows[LANDMARK_DIM:3 * LANDMARK_DIM].T, rows[:2 * LANDMARK_DIM].T,
-                         self._cov_buf.T)
+        """(P, rows (3, N), the mean's step row, (M H P)^T as a Fortran (N, 2) view, P^T,
+        H (2, 5) and its flat view, [M; (G v)^T] (3, 2) and its flat view) for the rank-2 pass
+        of :meth:`_update_known` and :meth:`_correct_pose`, made again whenever P is
+        reallocated (filling a kept array from a tuple costs half of making one)."""
+        rows = np.empty((LANDMARK_DIM + 1, self._cov_buf.shape[0]))
+        jac, coef = np.empty((LANDMARK_DIM, 5)), np.empty((LANDMARK_DIM + 1, LANDMARK_DIM))
+        self._scratch = (self._cov_buf, rows, rows[LANDMARK_DIM], rows[:LANDMARK_DIM].T,
+                         self._cov_buf.T, jac, jac.reshape(-1), coef, coef.reshape(-1))
         return self._scratch
 
     def _joseph_rows(self, hp: np.ndarray, s, s_inv, innovation) -> None:
-        """The in-place mean and Joseph update from H P (k, N), S and S^-1 (k, k), innovation (k,).
+        """The in-place mean and Joseph update from H P (k, N), S and G = S^-1 (k, k),
+        innovation (k,).
 
-        K^T = S^-1 H P, B^T = (I - S S^-1 / 2) H P and the mean's step K v = (S^-1 v)^T H P are
-        rows of one product C H P, C = [S^-1; I - S S^-1/2; S^-1; (S^-1 v)^T] (3k+1, k): its
-        rows 0..2k are [K B] and rows k..3k [B K], both Fortran-ordered (N, 2k) views as dgemm
-        takes them, so the BLAS pass copies nothing.
+        Joseph: P <- (I-KH) P (I-KH)^T + K R K^T = P - K U^T - U K^T + K S K^T, U = P H^T.
+        With the gain K = U G (G the S^-1 computed, rounding and all) that is exactly
+            P - U M U^T,   M = G + G^T - G S G^T  (2G - G S G: S and G symmetric),
+        a rank-k correction, one dgemm pass of inner dimension k whose operands are U = (H P)^T
+        and (M H P)^T, Fortran-ordered (N, k) views of C-ordered rows, so the pass copies
+        nothing. (The former P - [K B][B K]^T, B = U - K S / 2, is the same matrix at inner
+        dimension 2k: twice the arithmetic, which costs twice the time once the pass is no
+        longer bound by memory, as for a frame.) The mean's step K v = (G v)^T H P is one more
+        row of the same product.
         """
-        s, s_inv = np.asarray(s, dtype=float), np.asarray(s_inv, dtype=float)
-        k = len(s)
-        coef = np.empty((2 * k, k))
-        coef[:k] = s_inv
-        np.multiply(s @ s_inv, -0.5, out=coef[k:])
-        coef[k:].flat[::k + 1] += 1.0
-        rows = np.empty((3 * k + 1, hp.shape[1]))
-        np.dot(coef, hp, out=rows[:2 * k])
-        rows[2 * k:3 * k] = rows[:k]                                  # K again, not recomputed
-        np.dot(s_inv @ np.asarray(innovation, dtype=float), hp, out=rows[3 * k])
-        self._apply_rows(rows, k)
+        k = len(s_inv)
+        right = np.empty((k, k + 1))                                 # [2I - S G, v]
+        np.subtract(_identity(k, 2.0), np.dot(s, s_inv), out=right[:, :k])
+        right[:, k] = innovation
+        # G [2I - S G, v] = [M, G v]: its transpose's rows are [M^T; (G v)^T], M^T = M to rounding
+        self._joseph_pass(hp, np.dot(s_inv, right).T.dot(hp), k)
 
-    def _apply_rows(self, rows: np.ndarray, k: int) -> None:
-        """Apply C H P (3k+1, N) of :meth:`_joseph_rows` to the mean and the covariance."""
+    def _joseph_pass(self, hp: np.ndarray, rows: np.ndarray, k: int) -> None:
+        """Apply [M; (G v)^T] H P (k+1, N) of :meth:`_joseph_rows` to the mean and the
+        covariance; ``hp``: H P (k, N), C-contiguous (else dgemm would copy its transpose),
+        not a view of P (which the pass writes)."""
         mean = self._mean_buf
-        mean += rows[3 * k]
+        mean += rows[k]
         mean[2] = wrap_angle(mean.item(2))
-        # P -= [K B] [B K]^T in one BLAS pass, no (N, N) temporary: P is symmetric, so its
+        # P -= U (M H P) in one BLAS pass, no (N, N) temporary: P is symmetric, so its
         # transpose is a Fortran-ordered view of the same memory, which dgemm updates in
-        # place (P^T <- P^T - [B K] [K B]^T). numpy's ``P -= left @ right.T`` takes two passes.
-        dgemm(-1.0, rows[k:3 * k].T, rows[:2 * k].T, beta=1.0, c=self._cov_buf.T, trans_b=1,
-              overwrite_c=1)
+        # place (P^T <- P^T - U (U M)^T). numpy's ``P -= left @ right.T`` takes two passes.
+        dgemm(-1.0, hp.T, rows[:k].T, 1.0, self._cov_buf.T, 0, 1, 1)
 
     def _correct_landmark_only(self, index: int, innovation: np.ndarray, s: np.ndarray,
                                s_inv: np.ndarray, p_ht: np.ndarray) -> None:
