@@ -745,10 +745,11 @@ class EkfSlam:
         np.dot(scratch[7], hp, out=scratch[1])
         mean += scratch[2]
         mean[2] = (mean.item(2) + _PI) % _TWO_PI - _PI                      # wrap_angle
-        dgemm(-1.0, hp.T, scratch[3], 1.0, scratch[4], 0, 1, 1)
-        report = _new_object(UpdateReport)                  # _report, written out
+        # the report made before the pass (after it, making it costs 3x): _report, written out
+        report = _new_object(UpdateReport)
         report.__dict__.update(action="updated", landmark_index=index, innovation=(v0, v1),
                                nis=nis, obstacle_id=obs.obstacle_id)
+        dgemm(-1.0, hp.T, scratch[3], 1.0, scratch[4], 0, 1, 1)
         return report
 
     def _correct(self, parts: "_Innovation", index: int, obstacle_id: int | None,

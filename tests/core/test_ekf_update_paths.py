@@ -146,3 +146,23 @@ def test_update_by_id_is_bit_identical_to_update_landmark(meas_cov):
             by_id, by_index = by_id.copy(), by_index.copy()
         assert np.array_equal(by_id.mean, by_index.mean)
         assert np.array_equal(by_id.cov, by_index.cov)
+
+
+def test_gates_replaced_after_construction_govern_the_id_path():
+    """The id path reads the gates' thresholds from attributes the ``gates`` setter keeps (not
+    through the property, on the hot path): a filter whose gates are replaced must gate by the
+    new ones, an outlier refused and the state left as it was."""
+    slam, rng = correlated_filter()
+    index = 5
+    z = predicted(slam, index, rng, noise=(3.0, 0.0))              # 3 m off in range: NIS >> 1
+    probe = slam.copy()
+    nis = probe.update(Observation(z[0], z[1], slam.landmark_ids()[index])).nis
+    assert nis > 2.0
+    slam.gates = AssociationGates(accept_nis=1.0, new_landmark_nis=1.0, outlier_nis=1.0)
+    mean, cov = slam.mean.copy(), slam.cov.copy()
+    report = slam.update(Observation(z[0], z[1], slam.landmark_ids()[index]))
+    assert report.action == "outlier" and report.nis == pytest.approx(nis)
+    assert np.array_equal(slam.mean, mean) and np.array_equal(slam.cov, cov)
+    slam.gates = AssociationGates(outlier_nis=1e12, pose_correction_nis=1.0)
+    assert slam.update(Observation(z[0], z[1], slam.landmark_ids()[index])).action == "updated"
+    assert np.array_equal(slam.mean[:3], mean[:3])                 # beyond pose_nis: landmark only
