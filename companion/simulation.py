@@ -63,7 +63,9 @@ def make_navigator(scenario: Scenario, strategy: str | None = None) -> Navigator
                                          sensor_range_m=scenario.sensor.max_range_m,
                                          perception_delay_s=perception_delay_s(est, scenario)),
                      mover_params=est.mover_params(), options=est.options(),
-                     limits=vehicle_limits(scenario), look_at=look_at_params(scenario))
+                     limits=vehicle_limits(scenario), look_at=look_at_params(scenario),
+                     yaw_scan=scenario.avoidance.yaw_scan_params(
+                         scenario.avoidance.union_params(scenario.sensor.fov_rad).fov_rad))
 
 
 def look_at_params(scenario: Scenario) -> LookAtParams | None:
