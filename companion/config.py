@@ -21,9 +21,8 @@ from companion.core.movers import MoverParams
 from companion.core.estimator_options import EstimatorOptions
 from companion.core.lifecycle import LifecycleParams
 from companion.core.arc import VehicleLimits
-from companion.core.look_at import LookAtParams
+from companion.core.look_at import GoalLookParams, LookAtParams
 from companion.core.union import UnionParams
-from companion.core.yaw_scan import YawScanParams
 from companion.errors import ConfigError
 from companion.flight_phase import FlightPhaseParams
 
@@ -310,10 +309,11 @@ class AvoidanceConfig:
     flank_scan_deg: float | None = None   # union with limits: swing the heading to look this far
                                           # beyond the view's edges (core/flank_scan.py; None: off)
     flank_scan_period_s: float = 4.0      # ... each flank once within this
-    yaw_scan_deg: float | None = None     # a multicopter's nose looks at the flanks, turned this
-                                          # far off the flight direction (< half the camera's
-                                          # view; core/yaw_scan.py; None: off)
-    yaw_scan_period_s: float = 6.0        # ... each flank once within this
+    goal_look_deg: float | None = None    # a multicopter's nose turns toward the goal's direction
+                                          # when the velocity swerves, at most this far from the
+                                          # flight direction (< half the camera's view;
+                                          # core/look_at.py goal_look_yaw; None: off)
+    goal_look_gain: float = 1.0           # ... by this times the swerve
 
     def __post_init__(self) -> None:
         _positive("safety_distance_m", self.safety_distance_m)
@@ -325,10 +325,11 @@ class AvoidanceConfig:
             require(0.0 < self.flank_scan_deg < 90.0, "flank_scan_deg", self.flank_scan_deg,
                     "an angle in (0, 90) degrees")
         _positive("flank_scan_period_s", self.flank_scan_period_s)
-        if self.yaw_scan_deg is not None:
-            require(5.0 < self.yaw_scan_deg < 180.0, "yaw_scan_deg", self.yaw_scan_deg,
-                    "an angle in (5, 180) degrees, less than half the camera's field of view")
-        _positive("yaw_scan_period_s", self.yaw_scan_period_s)
+        if self.goal_look_deg is not None:
+            require(0.0 < self.goal_look_deg < 180.0, "goal_look_deg", self.goal_look_deg,
+                    "an angle in (0, 180) degrees, less than half the camera's field of view")
+        require(0.0 < self.goal_look_gain <= 10.0, "goal_look_gain", self.goal_look_gain,
+                "a gain in (0, 10]")
         if self.camera_fov_deg is not None:
             require(0.0 < self.camera_fov_deg <= 360.0, "camera_fov_deg", self.camera_fov_deg,
                     "a field of view in (0, 360]")
@@ -349,17 +350,17 @@ class AvoidanceConfig:
                            else math.radians(self.flank_scan_deg),
                            flank_scan_period_s=self.flank_scan_period_s)
 
-    def yaw_scan_params(self, fov_rad: float) -> YawScanParams | None:
-        """avoidance.yaw_scan_deg with the camera's field of view (None: off). The nose stays
+    def goal_look_params(self, fov_rad: float) -> GoalLookParams | None:
+        """avoidance.goal_look_deg with the camera's field of view (None: off). The nose stays
         within half the view of the flight direction, so the flight direction stays in view."""
-        if self.yaw_scan_deg is None:
+        if self.goal_look_deg is None:
             return None
         half_deg = 0.5 * math.degrees(fov_rad)
-        if not self.yaw_scan_deg < half_deg:
-            raise FieldError("avoidance.yaw_scan_deg", f"expected less than half the camera's "
+        if not self.goal_look_deg < half_deg:
+            raise FieldError("avoidance.goal_look_deg", f"expected less than half the camera's "
                              f"field of view ({half_deg:g} degrees) so the flight direction stays "
-                             f"in view, got {self.yaw_scan_deg!r}")
-        return YawScanParams(fov_rad, math.radians(self.yaw_scan_deg), self.yaw_scan_period_s)
+                             f"in view, got {self.goal_look_deg!r}")
+        return GoalLookParams(math.radians(self.goal_look_deg), self.goal_look_gain)
 
     def guidance_params(self, cruise_speed_mps: float, goal_radius_m: float) -> GuidanceParams:
         return GuidanceParams(
@@ -571,11 +572,11 @@ class Scenario:
                 raise FieldError("world.goal", f"the goal lies within the safety distance "
                                  f"({self.avoidance.safety_distance_m} m) of {kind} {shape.id}'s "
                                  "surface: no safe path can end there")
-        if self.avoidance.yaw_scan_deg is not None:
+        if self.avoidance.goal_look_deg is not None:
             if self.vehicle.kind != "multicopter":
-                raise FieldError("avoidance.yaw_scan_deg", "a multicopter's only (a unicycle's "
+                raise FieldError("avoidance.goal_look_deg", "a multicopter's only (a unicycle's "
                                  "camera looks where it flies: see flank_scan_deg)")
-            self.avoidance.yaw_scan_params(self.avoidance.union_params(self.sensor.fov_rad).fov_rad)
+            self.goal_look_params()
         if self.world.shapes() and self.sensor.form == "centres":
             raise FieldError("sensor.form", "centres cannot see walls or buildings (a camera "
                              "reporting centres says nothing about them): use sectors or both")
@@ -626,6 +627,10 @@ class Scenario:
 
     def guidance_params(self) -> GuidanceParams:
         return self.avoidance.guidance_params(self.vehicle.speed_mps, self.world.goal.radius_m)
+
+    def goal_look_params(self) -> GoalLookParams | None:
+        """avoidance.goal_look_deg with the scenario's camera (the velocity choice's view)."""
+        return self.avoidance.goal_look_params(self.avoidance.union_params(self.sensor.fov_rad).fov_rad)
 
 
 def load_scenario(path: str | Path) -> Scenario:
@@ -893,7 +898,7 @@ class CompanionConfig:
     fly_to: FlyToConfig = field(default_factory=FlyToConfig)
 
     def __post_init__(self) -> None:
-        self.yaw_scan_params()          # avoidance.yaw_scan_deg against the camera's view
+        self.goal_look_params()         # avoidance.goal_look_deg against the camera's view
 
     def guidance_params(self, goal_radius_m: float) -> GuidanceParams:
         return self.avoidance.guidance_params(self.commanding.cruise_speed_mps, goal_radius_m)
@@ -920,9 +925,9 @@ class CompanionConfig:
         return VehicleLimits(self.commanding.max_turn_rate_rad_s, self.commanding.max_accel_mps2,
                              lateral_accel_limited=True)
 
-    def yaw_scan_params(self) -> YawScanParams | None:
-        """avoidance.yaw_scan_deg (core/yaw_scan.py) with the service's camera; None: off."""
-        return self.avoidance.yaw_scan_params(self.camera_fov_rad)
+    def goal_look_params(self) -> GoalLookParams | None:
+        """avoidance.goal_look_deg (core/look_at.py) with the service's camera; None: off."""
+        return self.avoidance.goal_look_params(self.camera_fov_rad)
 
     def look_at_params(self) -> LookAtParams | None:
         """avoidance.look_at_threats: a mover counts when its closest approach comes within the

@@ -26,8 +26,7 @@ from companion.core.range_noise import with_range_model
 from companion.core.surface_cover import covering_nis
 from companion.core.guidance import GuidanceCommand, GuidanceParams, guide_apf, guide_cone
 from companion.core.arc import Motion, VehicleLimits
-from companion.core.look_at import LookAtParams, threat_to_watch
-from companion.core.yaw_scan import YawScan, YawScanParams
+from companion.core.look_at import GoalLookParams, LookAtParams, goal_look_yaw, threat_to_watch
 from companion.core.movers import (MoverParams, MoverTracker, apparent_velocity, mover_growth,
                                    mover_spread, start_evidence, world_measurement)
 from companion.core.union import UnionParams, guide_union
@@ -44,9 +43,9 @@ FRAME_TIMING_UNCERTAINTY_S = 0.05   # half an odometry period
 SAME_TIME_TOLERANCE_S = 1e-3
 LOOK_COURSE_MIN_SPEED_MPS = 0.5   # slower, the velocity's direction is noise: the last choice's
 NO_LOOK_MODES = ("arrived", "arrival_uncertain")
-YAW_SCAN_STEADY_RAD = math.radians(15.0)   # the yaw scan looks only while the choice is this
-                                           # near the course flown (not turning)
-YAW_SCAN_BACK_RAD = math.radians(3.0)      # ... and its nose is back along the course within this
+GOAL_LOOK_STEADY_RAD = math.radians(15.0)  # the goal look only while the choice is this near
+                                           # the course flown (not turning)
+GOAL_LOOK_BACK_RAD = math.radians(3.0)     # its nose is back along the course within this
 MAX_PENDING_FRAMES = 8
 SPREAD_MIN_UPDATES = 5         # a track's position sigma widens its safety distance once this
                                # many sightings confirm it (one second in view at 5 Hz)
@@ -89,11 +88,12 @@ class Navigator:
                  options: EstimatorOptions = EstimatorOptions(),
                  limits: VehicleLimits | None = None,
                  look_at: LookAtParams | None = None,
-                 yaw_scan: YawScanParams | None = None) -> None:
+                 goal_look: GoalLookParams | None = None) -> None:
         """``limits``: the union law chooses velocities the vehicle can fly (arc.py). ``look_at``
         (a multicopter's only): its nose may turn toward a tracked mover it cannot see
-        (core/look_at.py); the command then carries ``yaw_rad``. ``yaw_scan`` (a multicopter's
-        only): while it watches nothing, its nose looks at the flanks (core/yaw_scan.py)."""
+        (core/look_at.py); the command then carries ``yaw_rad``. ``goal_look`` (a multicopter's
+        only): while it watches nothing, its nose turns toward the goal's direction when the
+        velocity swerves (core/look_at.py goal_look_yaw)."""
         if strategy not in STRATEGIES:
             raise ValueError(f"unknown strategy {strategy!r}")
         self.slam = EkfSlam(start_pose, start_pose_cov, noise, gates)
@@ -129,8 +129,8 @@ class Navigator:
                                               union.flank_scan_period_s)) \
             if limits is not None and union.flank_scan_rad is not None else None
         self._looked: list = []         # (base heading, look heading) of this decision
-        self.yaw_scan = YawScan(yaw_scan) if yaw_scan is not None else None
-        self._scan_apart = False        # the nose scanned (or still comes back) off the course
+        self.goal_look = goal_look
+        self._goal_apart = False        # the nose looked toward the goal (or still comes back)
         self._urgent: tuple | None = None
         self.clock_s = 0.0                     # the filter's time: odometry time, or summed dt
         self.movers = MoverTracker(mover_params)
@@ -381,8 +381,6 @@ class Navigator:
             self.seen.mark(self.slam.pose)
         if self.scan is not None:
             self.scan.mark(self.clock_s, float(self.slam.pose[2]))
-        if self.yaw_scan is not None:
-            self.yaw_scan.mark(self.clock_s, float(self.slam.pose[2]))
         self._frame_hits, self._frame_near, self._frame_added = set(), set(), set()
         noise = self.slam.noise
         observations = with_range_model(observations, noise.range_sigma_m,
@@ -883,9 +881,9 @@ class Navigator:
         """The pose guidance sees: while the nose looks at a mover, its yaw is the direction the
         vehicle flies (the velocity's, or the last choice's when nearly still), since the choice
         reads the yaw as where the vehicle goes and what its camera has in view. The same while
-        the yaw scan's nose is apart, if the vehicle flies (slower, the nose's own yaw)."""
+        the goal look's nose is apart, if the vehicle flies (slower: the nose's own yaw)."""
         speed, course = self._velocity_now or (0.0, float(pose[2]))
-        if self.watching is None and self._scan_apart:
+        if self.watching is None and self._goal_apart:
             if speed < LOOK_COURSE_MIN_SPEED_MPS:
                 return pose
             return np.array([pose[0], pose[1], wrap_angle(course)])
@@ -914,36 +912,27 @@ class Navigator:
         self.watching = candidates[watch.index][0]
         return replace(command, yaw_rad=watch.bearing_rad)
 
-    def _scan_yaw(self, command: GuidanceCommand) -> GuidanceCommand:
-        """The command with the nose toward a flank (yaw_scan.py) while nothing is watched and
-        the vehicle flies on steadily: moving, and the choice within YAW_SCAN_STEADY_RAD of the
-        course it flies (a turn, a turn in place or a hold brings the nose back along the way).
-        Only ``yaw_rad`` changes."""
-        speed, course = self._velocity_now or (0.0, float(self.slam.pose[2]))
+    def _look_toward_goal(self, command: GuidanceCommand) -> GuidanceCommand:
+        """The command with the nose toward the goal's direction (look_at.goal_look_yaw) while
+        nothing is watched and the vehicle flies on steadily: moving, and the choice within
+        GOAL_LOOK_STEADY_RAD of the course it flies (a turn, a turn in place or a hold brings the
+        nose back along the way). Only ``yaw_rad`` changes."""
+        pose = self.slam.pose
+        speed, course = self._velocity_now or (0.0, float(pose[2]))
         steady = (self.watching is None and command.yaw_rad is None
                   and command.mode not in NO_LOOK_MODES and not command.mode.startswith("hold")
                   and speed >= LOOK_COURSE_MIN_SPEED_MPS
                   and command.speed_mps >= LOOK_COURSE_MIN_SPEED_MPS
-                  and abs(wrap_angle(command.heading_rad - course)) <= YAW_SCAN_STEADY_RAD)
-        if self.yaw_scan.params.goal_gain is not None:
-            pose = self.slam.pose
-            goal = math.atan2(self.goal[1] - pose[1], self.goal[0] - pose[0])
-            yaw = self.yaw_scan.toward_goal(command.heading_rad, goal) if steady else None
-            if steady and self.yaw_scan.params.sweep_rad is not None and (
-                    yaw is None or abs(wrap_angle(yaw - command.heading_rad)) < math.radians(3.0)):
-                yaw = self.yaw_scan.look(self.clock_s, command.heading_rad)
-            elif yaw is not None:
-                self.yaw_scan.stop()
-        else:
-            yaw = self.yaw_scan.look(self.clock_s, command.heading_rad) if steady else None
+                  and abs(wrap_angle(command.heading_rad - course)) <= GOAL_LOOK_STEADY_RAD)
+        yaw = goal_look_yaw(command.heading_rad, math.atan2(self.goal[1] - pose[1],
+                                                            self.goal[0] - pose[0]),
+                            self.goal_look) if steady else None
         if yaw is None:
-            if not steady:
-                self.yaw_scan.stop()
             # apart until the nose is back along the course (or the vehicle slows: its own yaw)
-            self._scan_apart = self._scan_apart and speed >= LOOK_COURSE_MIN_SPEED_MPS and \
-                abs(wrap_angle(float(self.slam.pose[2]) - course)) > YAW_SCAN_BACK_RAD
+            self._goal_apart = self._goal_apart and speed >= LOOK_COURSE_MIN_SPEED_MPS and \
+                abs(wrap_angle(float(pose[2]) - course)) > GOAL_LOOK_BACK_RAD
             return command
-        self._scan_apart = True
+        self._goal_apart = True
         return replace(command, yaw_rad=yaw)
 
     def _look_for(self, heading: float) -> float | None:
@@ -984,8 +973,8 @@ class Navigator:
             self._last_heading = self._looked[-1][0]     # the choice's, not a look's
         self._looked = []
         command = self._watch(self._moderate(command), movers)
-        if self.yaw_scan is not None:
-            command = self._scan_yaw(command)
+        if self.goal_look is not None:
+            command = self._look_toward_goal(command)
         key = self._key(command.urgent_index, movers)
         change = None
         if key != self._urgent:
