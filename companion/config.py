@@ -630,7 +630,8 @@ class Scenario:
 
     def goal_look_params(self) -> GoalLookParams | None:
         """avoidance.goal_look_deg with the scenario's camera (the velocity choice's view)."""
-        return self.avoidance.goal_look_params(self.avoidance.union_params(self.sensor.fov_rad).fov_rad)
+        fov_rad = self.avoidance.union_params(self.sensor.fov_rad).fov_rad
+        return self.avoidance.goal_look_params(fov_rad)
 
 
 def load_scenario(path: str | Path) -> Scenario:

@@ -15,6 +15,9 @@ uncertainty back to a measurement's. So the nose may turn toward it, and only to
   until it is passed or no longer threatens);
 - of several, the one whose closest approach comes first.
 
+While it watches none, the nose may turn back toward the goal when the velocity swerves
+(``goal_look_yaw``, below).
+
 Pure numpy; positions north/east metres, headings LOCAL_NED yaw (rad).
 """
 from __future__ import annotations
@@ -84,6 +87,14 @@ def threat_to_watch(position_ne_m: np.ndarray, course_rad: float, speed_mps: flo
 # ``gain`` times the swerve, at most ``max_offset_rad`` from the flight direction (less than half
 # the view: the flight direction stays in view, and ``max_offset_rad`` to spare on the far side is
 # what stays of it). Only the yaw: the velocity is the choice's.
+# Measured (copter.yaml traffic, 100 runs, 30 degrees): gain 1.5 gives 0.99 / 0.96 / 0.90 on seeds
+# 0-99 / 100-199 / 200-299, against 0.94 / 0.93 / 0.91 without, no collision either way; gain 1
+# 0.96 / 0.95 / 0.91 with one collision (seed 283, after a turn of 100 to 130 degrees off the goal
+# that no 30 degree look reaches). Dense 1.00 and moving 1.00 with it; dense at 10 and 15 m/s
+# 0.69 and 0.79 with it, 0.66 and 0.69 without (the copter passes posts at 6 to 9.5 m there
+# either way, never collides).
+# What stays: head-on movers tracked but passed at 3 to 9 m (the choice, not the view), and
+# crossers 45 to 60 degrees off a course that is straight at the goal (no swerve: no look).
 #
 # Tried first and left out (copter.yaml traffic, 100 runs, seeds 0-99 unless said; 0.94 without,
 # 0.93 on 100-199): a periodic sweep of the nose to the flanks and back whenever a flank 20 to 30
@@ -109,7 +120,8 @@ class GoalLookParams:
             raise ValueError(f"gain {self.gain!r}: expected > 0")
 
 
-def goal_look_yaw(course_rad: float, goal_bearing_rad: float, params: GoalLookParams) -> float | None:
+def goal_look_yaw(course_rad: float, goal_bearing_rad: float,
+                  params: GoalLookParams) -> float | None:
     """The yaw to point the nose at while flying ``course_rad`` with the goal at
     ``goal_bearing_rad``, or None (along the course: no swerve, or not finite)."""
     if not (math.isfinite(course_rad) and math.isfinite(goal_bearing_rad)):
