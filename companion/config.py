@@ -21,7 +21,7 @@ from companion.core.movers import MoverParams
 from companion.core.estimator_options import EstimatorOptions
 from companion.core.lifecycle import LifecycleParams
 from companion.core.arc import VehicleLimits
-from companion.core.look_at import LookAtParams
+from companion.core.look_at import GoalLookParams, LookAtParams
 from companion.core.union import UnionParams
 from companion.errors import ConfigError
 from companion.flight_phase import FlightPhaseParams
@@ -309,6 +309,11 @@ class AvoidanceConfig:
     flank_scan_deg: float | None = None   # union with limits: swing the heading to look this far
                                           # beyond the view's edges (core/flank_scan.py; None: off)
     flank_scan_period_s: float = 4.0      # ... each flank once within this
+    goal_look_deg: float | None = None    # a multicopter's nose turns toward the goal's direction
+                                          # when the velocity swerves, at most this far from the
+                                          # flight direction (< half the camera's view;
+                                          # core/look_at.py goal_look_yaw; None: off)
+    goal_look_gain: float = 1.0           # ... by this times the swerve
 
     def __post_init__(self) -> None:
         _positive("safety_distance_m", self.safety_distance_m)
@@ -320,6 +325,11 @@ class AvoidanceConfig:
             require(0.0 < self.flank_scan_deg < 90.0, "flank_scan_deg", self.flank_scan_deg,
                     "an angle in (0, 90) degrees")
         _positive("flank_scan_period_s", self.flank_scan_period_s)
+        if self.goal_look_deg is not None:
+            require(0.0 < self.goal_look_deg < 180.0, "goal_look_deg", self.goal_look_deg,
+                    "an angle in (0, 180) degrees, less than half the camera's field of view")
+        require(0.0 < self.goal_look_gain <= 10.0, "goal_look_gain", self.goal_look_gain,
+                "a gain in (0, 10]")
         if self.camera_fov_deg is not None:
             require(0.0 < self.camera_fov_deg <= 360.0, "camera_fov_deg", self.camera_fov_deg,
                     "a field of view in (0, 360]")
@@ -339,6 +349,18 @@ class AvoidanceConfig:
                            flank_scan_rad=None if self.flank_scan_deg is None
                            else math.radians(self.flank_scan_deg),
                            flank_scan_period_s=self.flank_scan_period_s)
+
+    def goal_look_params(self, fov_rad: float) -> GoalLookParams | None:
+        """avoidance.goal_look_deg with the camera's field of view (None: off). The nose stays
+        within half the view of the flight direction, so the flight direction stays in view."""
+        if self.goal_look_deg is None:
+            return None
+        half_deg = 0.5 * math.degrees(fov_rad)
+        if not self.goal_look_deg < half_deg:
+            raise FieldError("avoidance.goal_look_deg", f"expected less than half the camera's "
+                             f"field of view ({half_deg:g} degrees) so the flight direction stays "
+                             f"in view, got {self.goal_look_deg!r}")
+        return GoalLookParams(math.radians(self.goal_look_deg), self.goal_look_gain)
 
     def guidance_params(self, cruise_speed_mps: float, goal_radius_m: float) -> GuidanceParams:
         return GuidanceParams(
@@ -550,6 +572,11 @@ class Scenario:
                 raise FieldError("world.goal", f"the goal lies within the safety distance "
                                  f"({self.avoidance.safety_distance_m} m) of {kind} {shape.id}'s "
                                  "surface: no safe path can end there")
+        if self.avoidance.goal_look_deg is not None:
+            if self.vehicle.kind != "multicopter":
+                raise FieldError("avoidance.goal_look_deg", "a multicopter's only (a unicycle's "
+                                 "camera looks where it flies: see flank_scan_deg)")
+            self.goal_look_params()
         if self.world.shapes() and self.sensor.form == "centres":
             raise FieldError("sensor.form", "centres cannot see walls or buildings (a camera "
                              "reporting centres says nothing about them): use sectors or both")
@@ -600,6 +627,11 @@ class Scenario:
 
     def guidance_params(self) -> GuidanceParams:
         return self.avoidance.guidance_params(self.vehicle.speed_mps, self.world.goal.radius_m)
+
+    def goal_look_params(self) -> GoalLookParams | None:
+        """avoidance.goal_look_deg with the scenario's camera (the velocity choice's view)."""
+        fov_rad = self.avoidance.union_params(self.sensor.fov_rad).fov_rad
+        return self.avoidance.goal_look_params(fov_rad)
 
 
 def load_scenario(path: str | Path) -> Scenario:
@@ -866,6 +898,9 @@ class CompanionConfig:
     map_out: MapOutputConfig = field(default_factory=MapOutputConfig)
     fly_to: FlyToConfig = field(default_factory=FlyToConfig)
 
+    def __post_init__(self) -> None:
+        self.goal_look_params()         # avoidance.goal_look_deg against the camera's view
+
     def guidance_params(self, goal_radius_m: float) -> GuidanceParams:
         return self.avoidance.guidance_params(self.commanding.cruise_speed_mps, goal_radius_m)
 
@@ -890,6 +925,10 @@ class CompanionConfig:
         multicopter whose velocity turns within its acceleration limit."""
         return VehicleLimits(self.commanding.max_turn_rate_rad_s, self.commanding.max_accel_mps2,
                              lateral_accel_limited=True)
+
+    def goal_look_params(self) -> GoalLookParams | None:
+        """avoidance.goal_look_deg (core/look_at.py) with the service's camera; None: off."""
+        return self.avoidance.goal_look_params(self.camera_fov_rad)
 
     def look_at_params(self) -> LookAtParams | None:
         """avoidance.look_at_threats: a mover counts when its closest approach comes within the

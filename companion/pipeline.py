@@ -535,7 +535,8 @@ class Pipeline:
                          np.array(goal_ne),
                          self.config.avoidance.strategy, self.config.union_params(),
                          est.mover_params(), est.options(), limits=self.config.vehicle_limits(),
-                         look_at=self.config.look_at_params())
+                         look_at=self.config.look_at_params(),
+                         goal_look=self.config.goal_look_params())
 
     def _maybe_publish_pose(self, t_s: float, out: list[Output]) -> None:
         if self._last_pose_out_t_s is not None and t_s - self._last_pose_out_t_s \

@@ -22,6 +22,7 @@ def crossing(tmp_path, look: bool):
     data = yaml.safe_load((REPO / "config" / "scenarios" / "copter.yaml").read_text())
     data["world"]["obstacles"] = [MOVER]
     data["avoidance"]["look_at_threats"] = look
+    data["avoidance"]["goal_look_deg"] = None     # the look at threats alone (test_goal_look.py)
     path = tmp_path / f"crossing-{look}.yaml"
     path.write_text(yaml.safe_dump(data))
     return load_scenario(path)

@@ -26,7 +26,7 @@ from companion.core.range_noise import with_range_model
 from companion.core.surface_cover import covering_nis
 from companion.core.guidance import GuidanceCommand, GuidanceParams, guide_apf, guide_cone
 from companion.core.arc import Motion, VehicleLimits
-from companion.core.look_at import LookAtParams, threat_to_watch
+from companion.core.look_at import GoalLookParams, LookAtParams, goal_look_yaw, threat_to_watch
 from companion.core.movers import (MoverParams, MoverTracker, apparent_velocity, mover_growth,
                                    mover_spread, start_evidence, world_measurement)
 from companion.core.union import UnionParams, guide_union
@@ -43,6 +43,9 @@ FRAME_TIMING_UNCERTAINTY_S = 0.05   # half an odometry period
 SAME_TIME_TOLERANCE_S = 1e-3
 LOOK_COURSE_MIN_SPEED_MPS = 0.5   # slower, the velocity's direction is noise: the last choice's
 NO_LOOK_MODES = ("arrived", "arrival_uncertain")
+GOAL_LOOK_STEADY_RAD = math.radians(15.0)  # the goal look only while the choice is this near
+                                           # the course flown (not turning)
+GOAL_LOOK_BACK_RAD = math.radians(3.0)     # its nose is back along the course within this
 MAX_PENDING_FRAMES = 8
 SPREAD_MIN_UPDATES = 5         # a track's position sigma widens its safety distance once this
                                # many sightings confirm it (one second in view at 5 Hz)
@@ -84,10 +87,13 @@ class Navigator:
                  mover_params: MoverParams = MoverParams(),
                  options: EstimatorOptions = EstimatorOptions(),
                  limits: VehicleLimits | None = None,
-                 look_at: LookAtParams | None = None) -> None:
+                 look_at: LookAtParams | None = None,
+                 goal_look: GoalLookParams | None = None) -> None:
         """``limits``: the union law chooses velocities the vehicle can fly (arc.py). ``look_at``
         (a multicopter's only): its nose may turn toward a tracked mover it cannot see
-        (core/look_at.py); the command then carries ``yaw_rad``."""
+        (core/look_at.py); the command then carries ``yaw_rad``. ``goal_look`` (a multicopter's
+        only): while it watches nothing, its nose turns toward the goal's direction when the
+        velocity swerves (core/look_at.py goal_look_yaw)."""
         if strategy not in STRATEGIES:
             raise ValueError(f"unknown strategy {strategy!r}")
         self.slam = EkfSlam(start_pose, start_pose_cov, noise, gates)
@@ -123,6 +129,8 @@ class Navigator:
                                               union.flank_scan_period_s)) \
             if limits is not None and union.flank_scan_rad is not None else None
         self._looked: list = []         # (base heading, look heading) of this decision
+        self.goal_look = goal_look
+        self._goal_apart = False        # the nose looked toward the goal (or still comes back)
         self._urgent: tuple | None = None
         self.clock_s = 0.0                     # the filter's time: odometry time, or summed dt
         self.movers = MoverTracker(mover_params)
@@ -872,10 +880,15 @@ class Navigator:
     def _flight_pose(self, pose: np.ndarray) -> np.ndarray:
         """The pose guidance sees: while the nose looks at a mover, its yaw is the direction the
         vehicle flies (the velocity's, or the last choice's when nearly still), since the choice
-        reads the yaw as where the vehicle goes and what its camera has in view."""
+        reads the yaw as where the vehicle goes and what its camera has in view. The same while
+        the goal look's nose is apart, if the vehicle flies (slower: the nose's own yaw)."""
+        speed, course = self._velocity_now or (0.0, float(pose[2]))
+        if self.watching is None and self._goal_apart:
+            if speed < LOOK_COURSE_MIN_SPEED_MPS:
+                return pose
+            return np.array([pose[0], pose[1], wrap_angle(course)])
         if self.watching is None:
             return pose
-        speed, course = self._velocity_now or (0.0, float(pose[2]))
         if speed < LOOK_COURSE_MIN_SPEED_MPS and self._last_heading is not None:
             course = self._last_heading
         return np.array([pose[0], pose[1], wrap_angle(course)])
@@ -898,6 +911,29 @@ class Navigator:
             return command
         self.watching = candidates[watch.index][0]
         return replace(command, yaw_rad=watch.bearing_rad)
+
+    def _look_toward_goal(self, command: GuidanceCommand) -> GuidanceCommand:
+        """The command with the nose toward the goal's direction (look_at.goal_look_yaw) while
+        nothing is watched and the vehicle flies on steadily: moving, and the choice within
+        GOAL_LOOK_STEADY_RAD of the course it flies (a turn, a turn in place or a hold brings the
+        nose back along the way). Only ``yaw_rad`` changes."""
+        pose = self.slam.pose
+        speed, course = self._velocity_now or (0.0, float(pose[2]))
+        steady = (self.watching is None and command.yaw_rad is None
+                  and command.mode not in NO_LOOK_MODES and not command.mode.startswith("hold")
+                  and speed >= LOOK_COURSE_MIN_SPEED_MPS
+                  and command.speed_mps >= LOOK_COURSE_MIN_SPEED_MPS
+                  and abs(wrap_angle(command.heading_rad - course)) <= GOAL_LOOK_STEADY_RAD)
+        yaw = goal_look_yaw(command.heading_rad, math.atan2(self.goal[1] - pose[1],
+                                                            self.goal[0] - pose[0]),
+                            self.goal_look) if steady else None
+        if yaw is None:
+            # apart until the nose is back along the course (or the vehicle slows: its own yaw)
+            self._goal_apart = self._goal_apart and speed >= LOOK_COURSE_MIN_SPEED_MPS and \
+                abs(wrap_angle(float(pose[2]) - course)) > GOAL_LOOK_BACK_RAD
+            return command
+        self._goal_apart = True
+        return replace(command, yaw_rad=yaw)
 
     def _look_for(self, heading: float) -> float | None:
         """The flank scan's heading instead of the chosen ``heading`` (flank_scan.py), if any."""
@@ -937,6 +973,8 @@ class Navigator:
             self._last_heading = self._looked[-1][0]     # the choice's, not a look's
         self._looked = []
         command = self._watch(self._moderate(command), movers)
+        if self.goal_look is not None:
+            command = self._look_toward_goal(command)
         key = self._key(command.urgent_index, movers)
         change = None
         if key != self._urgent:
