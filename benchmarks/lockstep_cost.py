@@ -70,7 +70,7 @@ def fly(scenario: Path, workdir: Path) -> dict:
         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, cwd=REPO)
     gcs = psutil.Process(demo.pid)
     procs: dict[str, psutil.Process] = {"ground station": gcs}
-    samples = []                      # (wall s, vehicle t_s, armed, {role: (cpu s, switches)})
+    samples = []      # (wall s, vehicle t_s, armed, {role: (cpu s, switches, system cpu s)})
     while demo.poll() is None:
         if len(procs) < 3:
             for child in gcs.children():
@@ -84,7 +84,8 @@ def fly(scenario: Path, workdir: Path) -> dict:
                 cpu, switches = proc.cpu_times(), proc.num_ctx_switches()
             except psutil.Error:
                 continue
-            figures[role] = (cpu.user + cpu.system, switches.voluntary + switches.involuntary)
+            figures[role] = (cpu.user + cpu.system, switches.voluntary + switches.involuntary,
+                             cpu.system)
         if truth is not None and len(figures) == 3:
             samples.append((time.perf_counter(), truth[0], truth[1], figures))
         time.sleep(POLL_S)
@@ -100,9 +101,10 @@ def fly(scenario: Path, workdir: Path) -> dict:
     row = {"steps": steps, "wall_us_per_step": (end[0] - start[0]) / steps * 1e6,
            "real_time_factor": (end[1] - start[1]) / (end[0] - start[0])}
     for role in ("stub", "companion", "ground station"):
-        cpu0, sw0 = start[3][role]
-        cpu1, sw1 = end[3][role]
+        cpu0, sw0, sys0 = start[3][role]
+        cpu1, sw1, sys1 = end[3][role]
         row[f"{role} cpu_us_per_step"] = (cpu1 - cpu0) / steps * 1e6
+        row[f"{role} of it system_us_per_step"] = (sys1 - sys0) / steps * 1e6
         row[f"{role} switches_per_step"] = (sw1 - sw0) / steps
     serial = row["stub cpu_us_per_step"] + row["companion cpu_us_per_step"]
     row["bound_real_time_factor"] = 0.1 / (serial * 1e-6)

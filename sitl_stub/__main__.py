@@ -26,7 +26,8 @@ from pathlib import Path
 from .autopilot import Autopilot
 from .camera_component import CameraComponent
 from .links import Endpoint, LinkError, LinkHub, open_links, parse_endpoint
-from .lockstep import DEFAULT_TIMEOUT_S, LockstepGate, LockstepOptions, odometry_last
+from .lockstep import (DEFAULT_TIMEOUT_S, SAMPLE_IDS, LockstepGate, LockstepOptions,
+                       odometry_last)
 from .params import ParamTable
 from .sim import Simulation
 from .telemetry import COMP_AUTOPILOT, MODE_NAMES
@@ -242,6 +243,7 @@ class Lockstep:
         self._wake = asyncio.Event()
         self._burst: list = []
         hub.on_delivered = self.gate.on_delivered
+        hub.delivered_ids = frozenset(SAMPLE_IDS)      # all the gate looks at
         hub.on_odometry = self._on_odometry
         hub.on_client = self._on_client
 
