@@ -66,8 +66,9 @@ def run(args: argparse.Namespace) -> int:
     if args.view_feed:
         from companion.view.feed import parse_address
         parse_address(args.view_feed, "--view-feed")
-    if args.lockstep_overlap and not args.lockstep:
-        raise CompanionError("--lockstep-overlap needs lock-step (drop --no-lockstep)")
+    if args.lockstep_overlap and (not args.lockstep or args.autopilot):
+        raise CompanionError("--lockstep-overlap is the stub's, in lock-step: not with "
+                             "--no-lockstep or --autopilot")
     if args.autopilot:
         return run_autopilot(args, scenario_path, scenario)
     tlog = Path(args.tlog).resolve() if args.tlog else None
