@@ -2,21 +2,26 @@
 ground station, measured while `companion demo --lockstep` flies the paper scenario.
 
     python -m benchmarks.lockstep_cost [--runs 3] [--scenario config/scenarios/paper.yaml]
+                                       [--overlap]    # companion demo --lockstep-overlap
 
 The lock-step loop is serial: the stub steps and sends, the companion answers, the stub steps
 again. So on a machine with a core free for each, a step costs about the stub's CPU plus the
 companion's plus the wake-ups between them, and the real-time factor is bounded by
-dt / (stub + companion CPU per step). On a shared machine the wall time is that plus the time
+dt / (stub + companion CPU per step) (with --overlap, where the stub runs one step ahead:
+dt / the larger of the two). On a shared machine the wall time is that plus the time
 the processes wait for a core; CPU per step is what the code costs, whatever the load.
 
-Each process's CPU (user + system, psutil) and context switches are sampled every few
-milliseconds with the vehicle time (the stub's truth log): the figures are the deltas over the
-flight, from the first step after arming to the arrival, divided by the steps flown.
+Each process's CPU (its main thread's on-CPU time from /proc/PID/schedstat, in ns: the event
+loop's thread, the only busy one; psutil's user + system where that is missing) and context switches are sampled when the stub logs the
+companion's first ODOMETRY (the flight's first step) and when the companion logs its arrival:
+the figures are the deltas, divided by the steps flown between (the arrival's vehicle time in
+the companion's report). The system CPU (psutil, 10 ms ticks) is only a rough split.
 """
 from __future__ import annotations
 
 import argparse
 import json
+import re
 import subprocess
 import sys
 import tempfile
@@ -43,69 +48,89 @@ def _role(proc: psutil.Process) -> str | None:
     return None
 
 
-def _last_truth(path: Path) -> tuple[float, bool] | None:
-    """(t_s, armed) of the truth log's last whole line."""
+def _cpu_s(proc: psutil.Process) -> float:
+    """On-CPU time of ``proc``'s main thread, where its event loop runs (Linux
+    /proc/PID/schedstat, nanoseconds; the per-thread files are missing on this VM's kernel);
+    psutil's user + system of all threads where that is missing, which counts 10 ms ticks: too
+    coarse for a flight of one wall second (+-23 us a step over 426 steps)."""
     try:
-        with path.open("rb") as f:
-            f.seek(0, 2)
-            size = f.tell()
-            f.seek(max(0, size - 4096))
-            lines = f.read().splitlines()
+        return int(Path(f"/proc/{proc.pid}/schedstat").read_text().split()[0]) / 1e9
+    except (OSError, ValueError, IndexError):
+        cpu = proc.cpu_times()
+        return cpu.user + cpu.system
+
+
+def _log_time(path: Path, pattern: re.Pattern) -> float | None:
+    """The vehicle time in the first line of a child's log matching ``pattern``, if any yet."""
+    try:
+        text = path.read_text(errors="replace")
     except OSError:
         return None
-    for line in reversed(lines):
-        try:
-            record = json.loads(line)
-        except ValueError:
-            continue
-        return float(record["t_s"]), bool(record.get("armed"))
-    return None
+    match = pattern.search(text)
+    return float(match.group(1)) if match else None
 
 
-def fly(scenario: Path, workdir: Path) -> dict:
+FIRST_ANSWER = re.compile(r"lock-step peer: \S+ \(first ODOMETRY at ([\d.]+) s\)")
+ARRIVED = re.compile(r"arrived at the goal at ([\d.]+) s")
+
+
+def fly(scenario: Path, workdir: Path, overlap: bool = False) -> dict:
+    """One flight: each process's CPU and switches sampled when the stub logs the companion's
+    first ODOMETRY (the flight's first step; logging flushes every line) and when the companion
+    logs its arrival, within POLL_S of each; the steps between are the arrival's vehicle time
+    (the companion's report) less the first answer's."""
     keep, out = workdir / "keep", workdir / "out.json"
     demo = subprocess.Popen(
         [sys.executable, "-m", "companion", "demo", "--scenario", str(scenario), "--lockstep",
-         "--keep", str(keep), "--json", str(out)],
+         "--keep", str(keep), "--json", str(out)] + (["--lockstep-overlap"] if overlap else []),
         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, cwd=REPO)
     gcs = psutil.Process(demo.pid)
     procs: dict[str, psutil.Process] = {"ground station": gcs}
-    samples = []                      # (wall s, vehicle t_s, armed, {role: (cpu s, switches)})
-    while demo.poll() is None:
+    marks = []      # (wall s, {role: (cpu s, switches, system cpu s)}) at the first answer, arrival
+    watched = [(keep / "sitl-stub.stderr", FIRST_ANSWER), (keep / "companion.stderr", ARRIVED)]
+    first_t_s = None
+    while demo.poll() is None and len(marks) < 2:
         if len(procs) < 3:
             for child in gcs.children():
                 role = _role(child)
                 if role is not None:
                     procs.setdefault(role, child)
-        truth = _last_truth(keep / "truth.jsonl")
-        figures = {}
-        for role, proc in procs.items():
-            try:
-                cpu, switches = proc.cpu_times(), proc.num_ctx_switches()
-            except psutil.Error:
-                continue
-            figures[role] = (cpu.user + cpu.system, switches.voluntary + switches.involuntary)
-        if truth is not None and len(figures) == 3:
-            samples.append((time.perf_counter(), truth[0], truth[1], figures))
+        path, pattern = watched[len(marks)]
+        t_s = _log_time(path, pattern) if len(procs) == 3 else None
+        if t_s is not None:
+            wall = time.perf_counter()
+            figures = {}
+            for role, proc in procs.items():
+                try:
+                    cpu, switches = proc.cpu_times(), proc.num_ctx_switches()
+                    figures[role] = (_cpu_s(proc), switches.voluntary + switches.involuntary,
+                                     cpu.system)
+                except psutil.Error:
+                    pass
+            marks.append((wall, figures))
+            first_t_s = t_s if first_t_s is None else first_t_s
         time.sleep(POLL_S)
-    result = json.loads(out.read_text())
-    arrival_s = result["runs"][0].get("time_s")
-    flying = [s for s in samples if s[2]]
-    if arrival_s is None or len(flying) < 2:
+    demo.wait()
+    report = json.loads((keep / "companion-report.json").read_text()) \
+        if (keep / "companion-report.json").exists() else {}
+    arrival_s = report.get("arrival_t_s")
+    if len(marks) < 2 or arrival_s is None or any(len(m[1]) < 3 for m in marks):
         return {"error": "no flight seen"}
-    t0 = flying[0][1]
-    end = next((s for s in flying if s[1] >= t0 + arrival_s - 1e-6), flying[-1])
-    start = flying[0]
-    steps = (end[1] - start[1]) / 0.1
-    row = {"steps": steps, "wall_us_per_step": (end[0] - start[0]) / steps * 1e6,
-           "real_time_factor": (end[1] - start[1]) / (end[0] - start[0])}
+    (wall0, start), (wall1, end) = marks
+    steps = (arrival_s - first_t_s) / 0.1
+    row = {"steps": steps, "wall_us_per_step": (wall1 - wall0) / steps * 1e6,
+           "real_time_factor": (arrival_s - first_t_s) / (wall1 - wall0)}
     for role in ("stub", "companion", "ground station"):
-        cpu0, sw0 = start[3][role]
-        cpu1, sw1 = end[3][role]
+        cpu0, sw0, sys0 = start[role]
+        cpu1, sw1, sys1 = end[role]
         row[f"{role} cpu_us_per_step"] = (cpu1 - cpu0) / steps * 1e6
+        row[f"{role} of it system_us_per_step"] = (sys1 - sys0) / steps * 1e6
         row[f"{role} switches_per_step"] = (sw1 - sw0) / steps
     serial = row["stub cpu_us_per_step"] + row["companion cpu_us_per_step"]
     row["bound_real_time_factor"] = 0.1 / (serial * 1e-6)
+    # --lockstep-overlap: the two compute at once, so the slower one bounds the step
+    row["overlap_bound_real_time_factor"] = 0.1 / (max(row["stub cpu_us_per_step"],
+                                                       row["companion cpu_us_per_step"]) * 1e-6)
     return row
 
 
@@ -113,11 +138,13 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=3)
     parser.add_argument("--scenario", type=Path, default=PAPER)
+    parser.add_argument("--overlap", action="store_true",
+                        help="fly with --lockstep-overlap (the stub one step ahead)")
     args = parser.parse_args(argv)
     rows = []
     for _ in range(args.runs):
         with tempfile.TemporaryDirectory(prefix="lockstep-cost-") as tmp:
-            rows.append(fly(args.scenario, Path(tmp)))
+            rows.append(fly(args.scenario, Path(tmp), args.overlap))
     good = [r for r in rows if "error" not in r]
     if not good:
         print("no run gave figures:", rows)

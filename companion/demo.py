@@ -361,13 +361,15 @@ def read_truth(path: Path, tail_only: bool = False) -> list[dict]:
 async def run_demo(scenario_path: Path, scenario: Scenario, files: DemoFiles, speedup: float,
                    seed: int, drop_rate: float, signing_key_file: Path | None = None,
                    lockstep: bool = True,
-                   view_feed: str | None = None) -> tuple[dict, dict, list[dict], list]:
+                   view_feed: str | None = None,
+                   lockstep_overlap: bool = False) -> tuple[dict, dict, list[dict], list]:
     """Fly the scenario; returns (the companion's report, its config, the truth records, the
     ground station's (wall s, vehicle s) samples).
     With ``signing_key_file``, the stub, the companion and the ground station all sign.
     ``lockstep``: stub and companion in lock-step (module docstring); else the stub free-runs at
     ``speedup`` on the wall clock. ``view_feed``: HOST:PORT the companion sends its live state to
-    (``companion view``)."""
+    (``companion view``). ``lockstep_overlap``: the stub steps on the companion's answer to the
+    sample before the latest (``sitl-stub --lockstep-overlap``)."""
     config = demo_config(scenario, signing_key_file=signing_key_file)
     read_signing_key(config.link)             # a bad key file fails here, before any child
     files.config.write_text(yaml.safe_dump(config_to_dict(config)))
@@ -383,7 +385,7 @@ async def run_demo(scenario_path: Path, scenario: Scenario, files: DemoFiles, sp
         if signing_key_file is not None:
             stub_args += ["--signing-key", str(signing_key_file)]
         if lockstep:
-            stub_args += ["--lockstep"]
+            stub_args += ["--lockstep"] + (["--lockstep-overlap"] if lockstep_overlap else [])
         stub = await spawn("sitl-stub", stub_args, files.workdir, stdout=asyncio.subprocess.PIPE)
         children.append(stub)
         tcp_port, udp_port = await wait_for_ready(stub)

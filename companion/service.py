@@ -21,7 +21,6 @@ to the pipeline and the tlog, and our heartbeat schedule, come from the vehicle'
 from __future__ import annotations
 
 import asyncio
-import contextlib
 import json
 import logging
 import math
@@ -123,13 +122,20 @@ class Service:
             received = await link.inbox.get()
             if self.stop.is_set():
                 break
-            # Lock-step: what one message makes us send (setpoint, then ODOMETRY, the stub's
-            # sign to step) goes out together, one wake-up of the stub (companion/lockstep.py).
-            with link.coalesced() if self.clock is not None else contextlib.nullcontext():
+            if self.clock is None:
                 await self._handle(received)
+                continue
+            # Lock-step: what the messages already received make us send, up to our ODOMETRY
+            # (the stub's sign to step), goes out together: one wake-up of the stub
+            # (companion/lockstep.py); the messages after it wait for the next answer.
+            with link.coalesced():
+                while not await self._handle(received) and not link.inbox.empty() \
+                        and not self.stop.is_set():
+                    received = link.inbox.get_nowait()
 
-    async def _handle(self, received) -> None:
-        """One received message: stamp, record, through the pipeline, its outputs out."""
+    async def _handle(self, received) -> bool:
+        """One received message: stamp, record, through the pipeline, its outputs out. True if
+        they include our ODOMETRY."""
         link, pipeline = self.link, self.pipeline
         event = codec.decode(received.msg)
         t_us = received.t_us if self.clock is None else self.clock.observe(event)
@@ -146,8 +152,11 @@ class Service:
                 event.system_id, event.component_id):
             self.rates.on_message(codec.MSG_ID_ATTITUDE if isinstance(event, codec.Attitude)
                                   else codec.MSG_ID_LOCAL_POSITION_NED)
+        answered = False
         for output in pipeline.handle(t_us / 1e6, event):
             await self._dispatch(output)
+            answered = answered or isinstance(output, codec.PoseEstimate)
+        return answered
 
     async def _dispatch(self, output) -> None:
         link = self.link

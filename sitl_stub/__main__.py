@@ -17,6 +17,7 @@ import asyncio
 import collections
 import json
 import logging
+import math
 import signal
 import sys
 import time
@@ -26,7 +27,8 @@ from pathlib import Path
 from .autopilot import Autopilot
 from .camera_component import CameraComponent
 from .links import Endpoint, LinkError, LinkHub, open_links, parse_endpoint
-from .lockstep import DEFAULT_TIMEOUT_S, LockstepGate, LockstepOptions, odometry_last
+from .lockstep import (DEFAULT_TIMEOUT_S, MSG_ID_ODOMETRY, SAMPLE_IDS, LockstepGate,
+                       LockstepOptions, odometry_last)
 from .params import ParamTable
 from .sim import Simulation
 from .telemetry import COMP_AUTOPILOT, MODE_NAMES
@@ -120,6 +122,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--lockstep-timeout-s", type=float, default=DEFAULT_TIMEOUT_S,
                    help=f"wall seconds to wait for the companion before free-running "
                         f"(default {DEFAULT_TIMEOUT_S:g})")
+    p.add_argument("--lockstep-overlap", action="store_true",
+                   help="with --lockstep: step on the companion's answer to the sample before the "
+                        "latest, so both compute at once; its setpoints take effect one step "
+                        "(one control period) later (docs/sitl_stub.md)")
     p.add_argument("--log-level", default="INFO", help="stderr log level (default INFO)")
     cam = p.add_argument_group("camera only: the stub's camera beside any autopilot")
     cam.add_argument("--camera-only", action="store_true",
@@ -153,7 +159,8 @@ def parse_options(argv: list[str] | None) -> Options:
     key = _read_signing_key(args.signing_key) if args.signing_key else None
     if not args.lockstep_timeout_s > 0:
         raise ValueError(f"--lockstep-timeout-s must be > 0, got {args.lockstep_timeout_s}")
-    lockstep = LockstepOptions(timeout_s=args.lockstep_timeout_s) if args.lockstep else None
+    lockstep = LockstepOptions(timeout_s=args.lockstep_timeout_s,
+                               overlap=args.lockstep_overlap) if args.lockstep else None
     return Options(scenario=load_scenario(args.scenario), tcp=tcp, udp=udp, speedup=args.speedup,
                    seed=args.seed, truth_log=Path(args.truth_log) if args.truth_log else None,
                    drop_rate=args.drop_rate, sysid=sysid, signing_key=key,
@@ -202,6 +209,8 @@ async def simulate(opts: Options, sim: Simulation, ap: Autopilot, cam: CameraCom
 
     def handle_inbox() -> None:
         t_s = sim.t_s
+        if lockstep is not None:
+            lockstep.release(t_s, inbox)
         while inbox:
             name, msg = inbox.popleft()
             hub.broadcast(handle_safely(ap, name, msg, t_s))
@@ -237,11 +246,14 @@ class Lockstep:
     def __init__(self, options: LockstepOptions, hub: LinkHub, speedup: float) -> None:
         self.options = options
         self._speedup = speedup
-        self.gate = LockstepGate()
+        self.gate = LockstepGate(options.overlap)
         self._hub = hub
         self._wake = asyncio.Event()
         self._burst: list = []
+        self._pending: dict[str, list] = {}   # overlap: a peer's messages since its last ODOMETRY
+        self._answers: collections.deque = collections.deque()   # (t_ms, [(client, msg)])
         hub.on_delivered = self.gate.on_delivered
+        hub.delivered_ids = frozenset(SAMPLE_IDS)      # all the gate looks at
         hub.on_odometry = self._on_odometry
         hub.on_client = self._on_client
 
@@ -251,6 +263,31 @@ class Lockstep:
 
     def wake(self) -> None:
         self._wake.set()
+
+    def holds(self, client: str, msg) -> bool:
+        """With ``overlap``: a peer's message is held with its answer (the messages up to and
+        including its next ODOMETRY), which takes effect one step after the sample it answers,
+        whenever it arrives: the same flight whatever the load."""
+        if not self.options.overlap or not self.gate.is_peer(client):
+            return False
+        pending = self._pending.setdefault(client, [])
+        if len(pending) >= INBOX_LIMIT:
+            return False           # a peer that stopped answering: its messages go to the inbox
+        pending.append((client, msg))
+        if msg.id == MSG_ID_ODOMETRY:
+            self._answers.append((int(round(msg.time_usec / 1000.0)), pending))
+            self._pending[client] = []
+        self._wake.set()
+        return True
+
+    def release(self, t_s: float, inbox: collections.deque) -> None:
+        """Into the inbox: the held answers to samples at least one step old (all of them while
+        free-running)."""
+        limit_ms = math.inf if self.gate.free_running else \
+            int(round(t_s * 1000.0)) - self.gate.lag_ms
+        answers = self._answers
+        while answers and answers[0][0] <= limit_ms:
+            inbox.extend(answers.popleft()[1])
 
     def _on_odometry(self, client: str, msg) -> None:
         self.gate.on_odometry(client, msg)
@@ -333,6 +370,8 @@ async def run_stub(opts: Options) -> None:
     lockstep: Lockstep | None = None
 
     def on_message(name: str, msg) -> None:
+        if lockstep is not None and lockstep.holds(name, msg):
+            return
         if len(inbox) >= INBOX_LIMIT:
             overflow[0] += 1
             return
@@ -359,7 +398,8 @@ async def run_stub(opts: Options) -> None:
                      opts.scenario.path, sim.dt_s, opts.speedup, opts.seed, opts.drop_rate,
                      opts.sysid, "on" if opts.signing_key else "off",
                      "off" if opts.streams_off else "default",
-                     f"on (timeout {opts.lockstep.timeout_s:g} s)" if opts.lockstep else "off")
+                     f"on (timeout {opts.lockstep.timeout_s:g} s"
+                     f"{', overlapped' if opts.lockstep.overlap else ''})" if opts.lockstep else "off")
             print(f"SITL_STUB READY tcp={tcp} udp={udp}", flush=True)
             try:
                 async with asyncio.TaskGroup() as tg:

@@ -35,6 +35,7 @@ CLOSE_TIMEOUT_S = 2.0             # handlers of connected TCP clients get this l
 UNSIGNED_ALLOWED = (mavlink.MAVLINK_MSG_ID_HEARTBEAT, mavlink.MAVLINK_MSG_ID_RADIO_STATUS)
 _MSG_ID_ODOMETRY = mavlink.MAVLINK_MSG_ID_ODOMETRY
 _SIGNING_EPOCH_UNIX_S = 1420070400   # MAVLink signing timestamps count 10 us from 2015-01-01
+_CRC_EXTRA = {msg_id: bytes([cls.crc_extra]) for msg_id, cls in mavlink.mavlink_map.items()}
 
 
 class LinkError(Exception):
@@ -112,9 +113,27 @@ class _Client:
         self.parser.signing.allow_unsigned_callback = (
             (lambda _mav, msg_id: msg_id in UNSIGNED_ALLOWED) if key is not None else None)
 
-    def encode(self, comp: int, msg) -> bytes:
-        self.encoders[comp].send(msg)   # advances this component's sequence number
-        return self._sink.data
+    def encode(self, comp: int, msg, packed: bytes | None = None) -> bytes:
+        """``msg`` packed for this link (advances this component's sequence number).
+
+        ``packed``: the same message already packed, unsigned, for another link: only the
+        sequence number and the CRC differ, so they are patched in rather than the payload packed
+        again (the bytes are those pymavlink would give). Signed links always pack."""
+        enc = self.encoders[comp]
+        if packed is None or enc.signing.sign_outgoing:
+            enc.send(msg)
+            return self._sink.data
+        frame = bytearray(packed)
+        frame[4 if frame[0] == mavlink.PROTOCOL_MARKER_V2 else 2] = enc.seq
+        crc = mavlink.x25crc(frame[1:-2])
+        crc.accumulate(_CRC_EXTRA[msg.id])
+        frame[-2:] = crc.crc.to_bytes(2, "little")
+        enc.seq = (enc.seq + 1) % 256
+        return bytes(frame)
+
+    @property
+    def signs(self) -> bool:
+        return any(enc.signing.sign_outgoing for enc in self.encoders.values())
 
 
 class LinkHub:
@@ -141,6 +160,7 @@ class LinkHub:
                        unsigned_rejected=0, backlog_dropped=0)
         self._last_bad_warning_s = 0.0
         self.on_delivered: Callable[[str, object], None] | None = None
+        self.delivered_ids: frozenset[int] | None = None   # on_delivered for these only (None: all)
         self.on_odometry: Callable[[str, object], None] | None = None
         self.on_client: Callable[[str], None] | None = None
 
@@ -204,7 +224,17 @@ class LinkHub:
         """Send each (component, message) to every client (or to the client named ``only``)."""
         if not items:
             return
-        delivered = self.on_delivered
+        delivered, wanted = self.on_delivered, self.delivered_ids
+        # Each message is packed once; the other links patch in their sequence number and CRC
+        # (_Client.encode): the stub sends every message on every link, as ArduPilot does.
+        packed: list[bytes | None] = [None] * len(items)
+
+        def encode(client: _Client, index: int) -> bytes:
+            comp, msg = items[index]
+            data = client.encode(comp, msg, packed[index])
+            if packed[index] is None and not client.signs:
+                packed[index] = data
+            return data
         # UDP first: a lock-step companion (UDP in the demo and the tests) starts on its
         # sample while the stub is still encoding for the ground stations.
         if self._udp_transport is not None:
@@ -215,8 +245,8 @@ class LinkHub:
                 # whole packets; every receiver parses a datagram as one): one syscall and one
                 # wake-up of the peer per step instead of one per message.
                 chunks, size = [], 0
-                for comp, msg in items:
-                    data = client.encode(comp, msg)
+                for index, (_, msg) in enumerate(items):
+                    data = encode(client, index)
                     if self._drop():
                         self._n["dropped_out"] += 1
                         continue
@@ -226,7 +256,7 @@ class LinkHub:
                     chunks.append(data)
                     size += len(data)
                     self._n["sent"] += 1
-                    if delivered is not None:
+                    if delivered is not None and (wanted is None or msg.id in wanted):
                         delivered(client.name, msg)
                 if chunks:
                     self._udp_transport.sendto(b"".join(chunks), addr)
@@ -234,8 +264,8 @@ class LinkHub:
             if writer.is_closing() or only not in (None, name):
                 continue
             chunks, msgs = [], []
-            for comp, msg in items:
-                data = client.encode(comp, msg)
+            for index, (_, msg) in enumerate(items):
+                data = encode(client, index)
                 if self._drop():
                     self._n["dropped_out"] += 1
                     continue
@@ -250,7 +280,8 @@ class LinkHub:
             self._n["sent"] += len(chunks)
             if delivered is not None:
                 for msg in msgs:
-                    delivered(name, msg)
+                    if wanted is None or msg.id in wanted:
+                        delivered(name, msg)
 
     # ------------------------------------------------------------------ receiving
     def _drop(self) -> bool:

@@ -36,6 +36,9 @@ DEFAULT_START_TIMEOUT_S = 60.0
 class LockstepOptions:
     timeout_s: float = DEFAULT_TIMEOUT_S
     start_timeout_s: float = DEFAULT_START_TIMEOUT_S
+    # Step on the answer to the sample before the latest: the peer computes on sample k while
+    # the stub steps to k+1; what the peer sent for sample k takes effect one step later.
+    overlap: bool = False
 
 
 def odometry_last(items: list[tuple[int, object]]) -> list[tuple[int, object]]:
@@ -56,7 +59,8 @@ def odometry_last(items: list[tuple[int, object]]) -> list[tuple[int, object]]:
 class LockstepGate:
     """Who the peers are, what each has been sent and what each has answered (all in ms)."""
 
-    def __init__(self) -> None:
+    def __init__(self, overlap: bool = False) -> None:
+        self.overlap = overlap
         self._answered_ms: dict[str, int] = {}            # peer -> latest ODOMETRY time
         self._delivered_ms: dict[str, dict[int, int]] = {}  # client -> msg id -> latest time
         self._whole_ms: dict[str, int] = {}       # client -> latest time both parts went out
@@ -69,6 +73,9 @@ class LockstepGate:
     @property
     def has_peer(self) -> bool:
         return bool(self._answered_ms)
+
+    def is_peer(self, client: str) -> bool:
+        return client in self._answered_ms
 
     def on_delivered(self, client: str, msg) -> None:
         """A message went out to ``client`` (not dropped)."""
@@ -116,9 +123,14 @@ class LockstepGate:
             return False
         for client, answered in self._answered_ms.items():
             awaited = self.awaited_ms(client)
-            if awaited is not None and answered < awaited - self._slack_ms(client):
+            if awaited is not None and answered < awaited - self._slack_ms(client) - self.lag_ms:
                 return False
         return True
+
+    @property
+    def lag_ms(self) -> int:
+        """How many ms of samples the peers may still owe: one sample with ``overlap``."""
+        return (self._sample_gap_ms or 0) if self.overlap else 0
 
     def _slack_ms(self, client: str) -> int:
         """How far behind the peer may be: 0 if it answers every sample."""

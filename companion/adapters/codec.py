@@ -8,6 +8,7 @@ message used here with its fields and units.
 """
 from __future__ import annotations
 
+import functools
 import hashlib
 import hmac
 import math
@@ -289,6 +290,16 @@ def sector_bearings_rad(increment_deg: float, increment_f_deg: float, angle_offs
     return [math.radians(angle_offset_deg + i * step_deg) for i in range(count)]
 
 
+@functools.lru_cache(maxsize=64)
+def _wrapped_sector_bearings_rad(increment_deg: float, increment_f_deg: float,
+                                 angle_offset_deg: float, count: int) -> tuple[float, ...]:
+    """sector_bearings_rad wrapped to [-pi, pi]: the same few sector layouts arrive at every
+    frame (a camera's is fixed), so each is computed once."""
+    return tuple(math.atan2(math.sin(b), math.cos(b))
+                 for b in sector_bearings_rad(increment_deg, increment_f_deg, angle_offset_deg,
+                                              count))
+
+
 def _obstacle_sectors(msg, sysid: int, compid: int) -> ObstacleFrame:
     """OBSTACLE_DISTANCE: one observation (no id) per sector holding a valid distance.
 
@@ -305,11 +316,10 @@ def _obstacle_sectors(msg, sysid: int, compid: int) -> ObstacleFrame:
         return ObstacleFrame(sysid, compid, t_s, (), "sector increment not positive")
     if msg.min_distance > msg.max_distance:
         return ObstacleFrame(sysid, compid, t_s, (), "min_distance above max_distance")
-    bearings = sector_bearings_rad(msg.increment, msg.increment_f, msg.angle_offset,
-                                   len(msg.distances))
-    valid = [cm != NO_OBSTACLE_ID and msg.min_distance <= cm <= msg.max_distance
-             for cm in msg.distances]
-    wrapped = tuple(math.atan2(math.sin(b), math.cos(b)) for b in bearings)
+    wrapped = _wrapped_sector_bearings_rad(msg.increment, msg.increment_f, msg.angle_offset,
+                                           len(msg.distances))
+    low, high = msg.min_distance, msg.max_distance
+    valid = [cm != NO_OBSTACLE_ID and low <= cm <= high for cm in msg.distances]
     observations = tuple(Observation(cm / 100.0, b, None)
                          for cm, b, ok in zip(msg.distances, wrapped, valid) if ok)
     step_deg = msg.increment_f if msg.increment_f > 0.0 else float(msg.increment)

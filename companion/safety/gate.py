@@ -13,6 +13,7 @@ fields it knows by name are held to their limit:
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from dataclasses import dataclass
 
@@ -34,6 +35,11 @@ class GateVerdict:
     reason: str              # 'ok' or why the setpoint was refused
 
 
+@functools.lru_cache(maxsize=16)
+def _field_names(kind: type) -> tuple[str, ...]:
+    return tuple(f.name for f in dataclasses.fields(kind))
+
+
 class SetpointGate:
     """Checks each setpoint; counts refusals by reason in ``refused``."""
 
@@ -42,8 +48,8 @@ class SetpointGate:
         self.refused: dict[str, int] = {}
 
     def check(self, setpoint) -> GateVerdict:
-        values = {f.name: getattr(setpoint, f.name) for f in dataclasses.fields(setpoint)
-                  if isinstance(getattr(setpoint, f.name), float)}
+        values = {name: value for name in _field_names(type(setpoint))
+                  if isinstance(value := getattr(setpoint, name), float)}
         for name, value in values.items():
             if not math.isfinite(value):
                 return self._refuse(f"{name} not finite")

@@ -1,7 +1,8 @@
 """The seeded lock-step paper demo is one flight whatever the machine's load: flown twice, once
 beside two CPU-bound processes (as many as the machine has cores), its JSON (less the wall-clock
 figures), the vehicle's true path and the companion's estimated track are identical. The quiet
-flight is the session's paper demo (tests/conftest.py), flown with the same arguments."""
+flight is the session's paper demo (tests/conftest.py), flown with the same arguments. The same
+holds with --lockstep-overlap (the stub one step ahead of the companion)."""
 from __future__ import annotations
 
 import json
@@ -16,8 +17,9 @@ BUSY_S = 120.0      # each busy process ends by itself after this, even if the t
 BUSY = f"import time\nend = time.monotonic() + {BUSY_S}\nwhile time.monotonic() < end: pass\n"
 
 
-def fly(workdir):
-    done = companion(*PAPER_DEMO_ARGS, "--json", str(workdir / "demo.json"), "--keep", str(workdir))
+def fly(workdir, *extra):
+    done = companion(*PAPER_DEMO_ARGS, *extra, "--json", str(workdir / "demo.json"),
+                     "--keep", str(workdir))
     assert done.returncode == 0, done.stdout + done.stderr
     return flown(workdir)
 
@@ -35,16 +37,35 @@ def flown(workdir):
     return result, truth, track, wall, stub_log
 
 
-def test_the_lockstep_demo_is_the_same_flight_beside_two_busy_processes(tmp_path, paper_demo):
-    quiet = flown(paper_demo.workdir)
+def fly_loaded(workdir, *extra):
     busy = [subprocess.Popen([sys.executable, "-c", BUSY]) for _ in range(2)]
     try:
-        loaded = fly(tmp_path / "loaded")
+        loaded = fly(workdir, *extra)
         assert all(p.poll() is None for p in busy)       # the load was there the whole flight
     finally:
         for p in busy:
             p.kill()
             p.wait()
+    return loaded
+
+
+def test_the_lockstep_demo_is_the_same_flight_beside_two_busy_processes(tmp_path, paper_demo):
+    quiet = flown(paper_demo.workdir)
+    loaded = fly_loaded(tmp_path / "loaded")
+    assert_same_flight(quiet, loaded)
+
+
+def test_overlapped_the_lockstep_demo_is_one_flight_too(tmp_path):
+    """--lockstep-overlap (the stub one step ahead, the setpoints one step later): the same flight
+    quiet and loaded, though not main lock-step's flight."""
+    quiet = fly(tmp_path / "quiet", "--lockstep-overlap")
+    loaded = fly_loaded(tmp_path / "loaded", "--lockstep-overlap")
+    assert_same_flight(quiet, loaded)
+    assert quiet[0]["aggregate"]["lockstep_overlap"] is True
+    assert "lock-step on (timeout 3 s, overlapped)" in quiet[4]
+
+
+def assert_same_flight(quiet, loaded):
     for run in (quiet, loaded):
         result, truth, track, wall, stub_log = run
         assert result["runs"][0]["reached_goal"] and len(truth) > 300 and len(track["t_s"]) > 300

@@ -2,6 +2,7 @@
 waits for whole odometry samples only, and free-runs after its bounded wait, then locks again."""
 from __future__ import annotations
 
+import collections
 import re
 import time
 
@@ -140,3 +141,64 @@ def test_a_peer_answering_every_other_sample_is_waited_for_loosely_never_forever
     gate.on_delivered("c", att(1200))
     gate.on_delivered("c", lpn(1200))
     assert not gate.caught_up()                 # two samples behind: more than its period
+
+
+def test_overlapped_the_stub_steps_on_the_answer_to_the_sample_before_the_latest():
+    gate = LockstepGate(overlap=True)
+    for t in (0, 100):
+        gate.on_delivered("c", att(t))
+        gate.on_delivered("c", lpn(t))
+    assert not gate.caught_up()                   # no peer yet
+    gate.on_odometry("c", odo(0))
+    assert gate.caught_up()                       # sample 100 may still be being computed
+    gate.on_delivered("c", att(200))
+    gate.on_delivered("c", lpn(200))
+    assert not gate.caught_up()                   # but not two samples
+    gate.on_odometry("c", odo(100))
+    assert gate.caught_up()
+
+
+def test_overlapped_an_answer_takes_effect_one_step_after_its_sample_however_early_it_came():
+    """What a peer sends for sample k (up to its ODOMETRY of k) is handled at step k + 1, never
+    at step k even when it arrives before the stub looks: the flight does not depend on load."""
+    from sitl_stub.__main__ import Lockstep
+    from sitl_stub.lockstep import LockstepOptions
+
+    class Hub:
+        def broadcast(self, items, only=None):
+            pass
+
+    lockstep = Lockstep(LockstepOptions(overlap=True), Hub(), 1.0)
+    gate, inbox = lockstep.gate, collections.deque()
+    setpoint = mav.MAVLink_set_position_target_local_ned_message(
+        0, 1, 1, 1, 0b110111000111, 0, 0, 0, 1.0, 0, 0, 0, 0, 0, 0, 0)
+
+    def sample(t_ms):
+        gate.on_delivered("c", att(t_ms))
+        gate.on_delivered("c", lpn(t_ms))
+
+    def answer(t_ms):                              # as the link delivers it: the hook, then it
+        assert lockstep.holds("c", setpoint)
+        gate.on_odometry("c", odo(t_ms))
+        assert lockstep.holds("c", odo(t_ms))
+
+    assert not lockstep.holds("c", setpoint)      # not a peer yet: handled at once
+    sample(0)
+    gate.on_odometry("c", odo(0))
+    assert lockstep.holds("c", odo(0))
+    lockstep.release(0.0, inbox)                   # step 0: the first answer, as without overlap
+    assert [m.id for _, m in inbox] == [mav.MAVLINK_MSG_ID_ODOMETRY]
+    inbox.clear()
+    sample(100)
+    answer(100)                                    # early: before the stub stepped from 0.1 s
+    assert gate.caught_up()
+    lockstep.release(0.1, inbox)
+    assert not inbox                               # held for one step
+    sample(200)
+    lockstep.release(0.2, inbox)
+    assert [m.get_type() for _, m in inbox] == ["SET_POSITION_TARGET_LOCAL_NED", "ODOMETRY"]
+    gate.free_running = True                       # no lock, nothing held back
+    answer(200)
+    inbox.clear()
+    lockstep.release(0.2, inbox)
+    assert len(inbox) == 2

@@ -57,6 +57,36 @@ def test_components_have_their_own_sequence_numbers():
     assert seqs == [(1, 0), (1, 1), (100, 0), (1, 2), (100, 1)]
 
 
+def _telemetry_burst():
+    """Messages of every kind the stub streams, with trailing zero bytes (truncated payloads)."""
+    odom = Odometry(north_m=3.0, east_m=-2.0, yaw_rad=0.4, speed_mps=1.5, yaw_rate_rad_s=0.0,
+                    vel_north_mps=1.2, vel_east_mps=0.7, up_m=10.0, vel_up_mps=0.0)
+    return [(1, telemetry.heartbeat_autopilot(4, True, False)),
+            (1, telemetry.attitude(12.3, 0.4, 0.0)),
+            (1, telemetry.local_position_ned(12.3, odom, 3.0, -2.0)),
+            (100, telemetry.heartbeat_camera()),
+            (1, mavlink.MAVLink_param_request_read_message(1, 1, b"GUID_TIMEOUT", -1)),
+            (100, mavlink.MAVLink_obstacle_distance_message(
+                123, 0, [300] * 10 + [0] * 62, 5, 20, 2000, 5.0, 0.0, mavlink.MAV_FRAME_BODY_FRD))]
+
+
+def test_a_message_packed_for_one_link_is_patched_for_another_byte_for_byte():
+    """broadcast() packs each message once: another link's copy (its own sequence number and CRC)
+    is the frame pymavlink would have packed for it."""
+    first, second, reference = (_Client(name, 1, None, 1) for name in ("a", "b", "ref"))
+    for _ in range(3):               # the links' sequence numbers differ
+        second.encode(1, telemetry.heartbeat_camera())
+        reference.encode(1, telemetry.heartbeat_camera())
+    for _ in range(300):             # through the wrap at 256
+        for comp, msg in _telemetry_burst():
+            packed = first.encode(comp, msg)
+            assert second.encode(comp, msg, packed) == reference.encode(comp, msg)
+    signed = _Client("signed", 1, bytes(range(32)), 2)
+    comp, msg = _telemetry_burst()[1]
+    assert len(signed.encode(comp, msg, first.encode(comp, msg))) == \
+        len(first.encode(comp, msg)) + 13          # a signing link packs (and signs) its own
+
+
 def test_every_emitted_message_packs_and_angles_stay_in_range():
     enc = mavlink.MAVLink(None, srcSystem=1, srcComponent=1)
     dec = mavlink.MAVLink(None)
