@@ -136,9 +136,15 @@ def test_a_killed_campaign_leaves_no_workers_running(tmp_path):
                                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     workers: list[psutil.Process] = []
     try:
+        def is_worker(p: psutil.Process) -> bool:
+            try:
+                return "multiprocessing" in " ".join(p.cmdline()) or p.ppid() == campaign.pid
+            except psutil.NoSuchProcess:        # a short-lived helper gone between the two calls
+                return False
+
         def two_workers():
             found = [p for p in psutil.Process(campaign.pid).children(recursive=True)
-                     if "multiprocessing" in " ".join(p.cmdline()) or p.ppid() == campaign.pid]
+                     if is_worker(p)]
             return len(found) >= 2 and found
         workers = wait_until(lambda: campaign.poll() is None and two_workers(), 60.0,
                              "the campaign's two workers")
