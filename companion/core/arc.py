@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from companion.core.geometry import TWO_PI
+from companion.core.geometry import TWO_PI, wrap_angles
 
 STEP_S = 0.25                    # the roll-out's time step
 MAX_GROWTH_M = 5.0               # a mover's radius grows by at most this over a roll-out: a
@@ -37,9 +37,12 @@ class VehicleLimits:
     max_accel_mps2: float
     lateral_accel_limited: bool = False      # a multicopter's velocity turns within max_accel
 
-    def motion(self, speed_mps: float, course_rad: float) -> "Motion":
+    def motion(self, speed_mps: float, course_rad: float,
+               nose_rad: float | None = None) -> "Motion":
+        """``nose_rad``: the yaw now (a multicopter's; see Motion.nose_rad)."""
+        copter = self.lateral_accel_limited
         return Motion(self.max_turn_rate_rad_s, self.max_accel_mps2, speed_mps, course_rad,
-                      self.max_accel_mps2 if self.lateral_accel_limited else None)
+                      self.max_accel_mps2 if copter else None, nose_rad if copter else None)
 
 
 @dataclass(frozen=True)
@@ -50,6 +53,8 @@ class Motion:
     speed_mps: float                         # now
     course_rad: float                        # direction of the velocity now
     max_lateral_accel_mps2: float | None = None   # None: the unicycle (turn rate only)
+    nose_rad: float | None = None            # a multicopter's yaw now: with a lateral limit, the
+                                             # roll-out flies its velocity setpoint (_fly_copter)
 
     def turn_rate_at(self, speed_mps: np.ndarray) -> np.ndarray:
         """The fastest turn of the velocity's direction at each speed (rad/s)."""
@@ -79,6 +84,10 @@ def fly_out(start_ne_m: np.ndarray, motion: Motion, headings_rad: np.ndarray,
     cruise_steps = int(math.ceil(horizon_s / STEP_S))
     start = np.asarray(start_ne_m, dtype=float)
     times = STEP_S * np.arange(1, steps + 1)
+    if motion.max_lateral_accel_mps2 is not None and motion.nose_rad is not None:
+        positions, speeds = _fly_copter(start, motion, headings, commanded, steps, cruise_steps,
+                                        fov_rad)
+        return Rollout(times, positions, speeds)
     if j == 1:
         positions, speeds = _fly_one(start, motion, float(headings[0]), float(commanded[0]),
                                      steps, cruise_steps, fov_rad)
@@ -132,6 +141,43 @@ def fly_out(start_ne_m: np.ndarray, motion: Motion, headings_rad: np.ndarray,
         positions[:, k, 1] = east
         speeds[:, k] = speed
     return Rollout(times, positions, speeds)
+
+
+def _fly_copter(start: np.ndarray, motion: Motion, headings: np.ndarray, commanded: np.ndarray,
+                steps: int, cruise_steps: int, fov_rad: float) -> tuple[np.ndarray, np.ndarray]:
+    """fly_out for a multicopter, as the truth flies it (truth.step_copter) from the setpoint the
+    guidance sends (guidance.shape_setpoint): the nose turns toward the command at the turn
+    rate; the setpoint is the speed scaled by the cosine of the nose's remaining error (zero
+    beyond half the view, as union.turn_speed_factor) along the nose's new direction; the
+    velocity moves toward that setpoint at the acceleration limit, as a vector. After the
+    cruise the setpoint is zero: the vehicle brakes in a straight line, as it does when told to
+    stop. Unlike the unicycle's arc, the course does not turn while braking, and the speed is
+    not kept up while the velocity turns. positions (J, N, 2), speeds (J, N)."""
+    j = len(headings)
+    max_dv = motion.max_accel_mps2 * STEP_S
+    max_turn = motion.max_turn_rate_rad_s * STEP_S
+    nose = np.full(j, float(motion.nose_rad))
+    vel = np.tile(motion.speed_mps * np.array([math.cos(motion.course_rad),
+                                               math.sin(motion.course_rad)]), (j, 1))
+    position = np.tile(np.asarray(start, dtype=float), (j, 1))
+    positions = np.empty((j, steps, 2))
+    speeds = np.empty((j, steps))
+    for k in range(steps):
+        if k < cruise_steps:
+            error = wrap_angles(headings - nose)
+            speed = np.where(np.abs(error) > 0.5 * fov_rad, 0.0, commanded * np.cos(error))
+            nose = nose + np.clip(error, -max_turn, max_turn)
+            target = speed[:, None] * np.stack([np.cos(nose), np.sin(nose)], axis=1)
+        else:
+            target = np.zeros((j, 2))
+        dv = target - vel
+        norm = np.hypot(dv[:, 0], dv[:, 1])
+        dv *= np.minimum(1.0, max_dv / np.maximum(norm, 1e-12))[:, None]
+        position = position + (vel + 0.5 * dv) * STEP_S
+        vel = vel + dv
+        positions[:, k] = position
+        speeds[:, k] = np.hypot(vel[:, 0], vel[:, 1])
+    return positions, speeds
 
 
 def _fly_one(start: np.ndarray, motion: Motion, heading: float, commanded: float, steps: int,
