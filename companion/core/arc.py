@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from companion.core.geometry import TWO_PI, wrap_angles
+from companion.core.geometry import TWO_PI
 
 STEP_S = 0.25                    # the roll-out's time step
 MAX_GROWTH_M = 5.0               # a mover's radius grows by at most this over a roll-out: a
@@ -152,32 +152,78 @@ def _fly_copter(start: np.ndarray, motion: Motion, headings: np.ndarray, command
     velocity moves toward that setpoint at the acceleration limit, as a vector. After the
     cruise the setpoint is zero: the vehicle brakes in a straight line, as it does when told to
     stop. Unlike the unicycle's arc, the course does not turn while braking, and the speed is
-    not kept up while the velocity turns. positions (J, N, 2), speeds (J, N)."""
+    not kept up while the velocity turns. positions (J, N, 2), speeds (J, N). One command runs
+    in Python floats (_fly_copter_one: the same operations in the same order, the same bits)."""
+    if len(headings) == 1:
+        return _fly_copter_one(start, motion, float(headings[0]), float(commanded[0]), steps,
+                               cruise_steps, fov_rad)
     j = len(headings)
     max_dv = motion.max_accel_mps2 * STEP_S
     max_turn = motion.max_turn_rate_rad_s * STEP_S
     nose = np.full(j, float(motion.nose_rad))
-    vel = np.tile(motion.speed_mps * np.array([math.cos(motion.course_rad),
-                                               math.sin(motion.course_rad)]), (j, 1))
-    position = np.tile(np.asarray(start, dtype=float), (j, 1))
+    vel_n = np.full(j, motion.speed_mps * math.cos(motion.course_rad))
+    vel_e = np.full(j, motion.speed_mps * math.sin(motion.course_rad))
+    north, east = np.full(j, float(start[0])), np.full(j, float(start[1]))
     positions = np.empty((j, steps, 2))
     speeds = np.empty((j, steps))
     for k in range(steps):
         if k < cruise_steps:
-            error = wrap_angles(headings - nose)
+            error = (headings - nose + math.pi) % TWO_PI - math.pi
             speed = np.where(np.abs(error) > 0.5 * fov_rad, 0.0, commanded * np.cos(error))
-            nose = nose + np.clip(error, -max_turn, max_turn)
-            target = speed[:, None] * np.stack([np.cos(nose), np.sin(nose)], axis=1)
+            nose = nose + np.minimum(np.maximum(error, -max_turn), max_turn)
+            dv_n, dv_e = speed * np.cos(nose) - vel_n, speed * np.sin(nose) - vel_e
         else:
-            target = np.zeros((j, 2))
-        dv = target - vel
-        norm = np.hypot(dv[:, 0], dv[:, 1])
-        dv *= np.minimum(1.0, max_dv / np.maximum(norm, 1e-12))[:, None]
-        position = position + (vel + 0.5 * dv) * STEP_S
-        vel = vel + dv
-        positions[:, k] = position
-        speeds[:, k] = np.hypot(vel[:, 0], vel[:, 1])
+            if not (vel_n.any() or vel_e.any()):     # all at rest: nothing moves any more
+                positions[:, k:] = positions[:, k - 1:k]
+                speeds[:, k:] = 0.0
+                break
+            dv_n, dv_e = -vel_n, -vel_e
+        norm = np.sqrt(dv_n * dv_n + dv_e * dv_e)       # as truth.step_copter: limited beyond
+        scale = np.where(norm > max_dv, max_dv / np.maximum(norm, 1e-12), 1.0)
+        dv_n, dv_e = dv_n * scale, dv_e * scale
+        north = north + (vel_n + 0.5 * dv_n) * STEP_S
+        east = east + (vel_e + 0.5 * dv_e) * STEP_S
+        vel_n, vel_e = vel_n + dv_n, vel_e + dv_e
+        positions[:, k, 0] = north
+        positions[:, k, 1] = east
+        speeds[:, k] = np.sqrt(vel_n * vel_n + vel_e * vel_e)
     return positions, speeds
+
+
+def _fly_copter_one(start: np.ndarray, motion: Motion, heading: float, commanded: float,
+                    steps: int, cruise_steps: int, fov_rad: float) -> tuple[np.ndarray, np.ndarray]:
+    """_fly_copter's loop for one command in Python floats: positions (1, N, 2), speeds (1, N)."""
+    max_dv = motion.max_accel_mps2 * STEP_S
+    max_turn = motion.max_turn_rate_rad_s * STEP_S
+    half_fov, pi, cos, sin, sqrt = 0.5 * fov_rad, math.pi, math.cos, math.sin, math.sqrt
+    nose = float(motion.nose_rad)
+    vel_n = motion.speed_mps * cos(motion.course_rad)
+    vel_e = motion.speed_mps * sin(motion.course_rad)
+    north, east = float(start[0]), float(start[1])
+    path: list[float] = []
+    speeds: list[float] = []
+    for k in range(steps):
+        if k < cruise_steps:
+            error = (heading - nose + pi) % TWO_PI - pi
+            speed = 0.0 if abs(error) > half_fov else commanded * cos(error)
+            nose = nose + min(max(error, -max_turn), max_turn)
+            dv_n, dv_e = speed * cos(nose) - vel_n, speed * sin(nose) - vel_e
+        else:
+            if vel_n == 0.0 and vel_e == 0.0:
+                path += path[-2:] * (steps - k)
+                speeds += [0.0] * (steps - k)
+                break
+            dv_n, dv_e = -vel_n, -vel_e
+        norm = sqrt(dv_n * dv_n + dv_e * dv_e)
+        scale = max_dv / norm if norm > max_dv else 1.0
+        dv_n, dv_e = dv_n * scale, dv_e * scale
+        north = north + (vel_n + 0.5 * dv_n) * STEP_S
+        east = east + (vel_e + 0.5 * dv_e) * STEP_S
+        vel_n, vel_e = vel_n + dv_n, vel_e + dv_e
+        path.append(north)
+        path.append(east)
+        speeds.append(sqrt(vel_n * vel_n + vel_e * vel_e))
+    return np.array(path).reshape(1, steps, 2), np.array(speeds).reshape(1, steps)
 
 
 def _fly_one(start: np.ndarray, motion: Motion, heading: float, commanded: float, steps: int,

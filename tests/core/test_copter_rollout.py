@@ -79,3 +79,20 @@ def test_a_stop_is_a_straight_brake_not_a_turn_away(copter):
     truth_margin = float(np.min(np.hypot(*(truth - post[0]).T)) - d[0])
     assert truth_margin < -2.0
     assert float(clearance(stop, post, d)[0]) == pytest.approx(truth_margin, abs=0.5)
+
+
+def test_one_command_alone_rolls_out_to_the_same_bits_as_among_many(copter):
+    headings = np.radians([-170.0, -100.0, -44.0, 0.0, 30.0, 46.0, 105.0])
+    speeds = np.array([15.0, 10.0, 10.0, 0.0, 7.5, 10.0, 12.0])
+    vehicle = copter.vehicle
+    motion = VehicleLimits(vehicle.max_turn_rate_rad_s, vehicle.max_accel_mps2,
+                           lateral_accel_limited=True).motion(8.0, 0.4, 0.9)
+    many = fly_out(np.array([3.0, -2.0]), motion, headings, speeds, HORIZON_S, FOV)
+    for i, (heading, speed) in enumerate(zip(headings, speeds)):
+        one = fly_out(np.array([3.0, -2.0]), motion, np.array([heading]), np.array([speed]),
+                      HORIZON_S, FOV)
+        n = len(one.times_s)       # fewer steps at a lower top speed: stopped by then
+        assert np.array_equal(one.positions[0], many.positions[i, :n])
+        assert np.array_equal(one.speeds[0], many.speeds[i, :n])
+        assert np.all(many.positions[i, n:] == one.positions[0, -1])
+        assert one.speeds[0, -1] == pytest.approx(0.0, abs=1e-9)
