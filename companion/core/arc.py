@@ -14,6 +14,13 @@ predicted positions, their radius growing with the track's uncertainty):
 - after ``horizon_s`` the vehicle brakes to a stop along its heading: a command is only
   reachable if stopping after it is too (no state from which every future collides).
 
+A multicopter (a lateral limit and its nose known: Motion.nose_rad) is rolled out as it flies
+its velocity setpoint instead (_fly_copter): the nose turns at the turn rate, the setpoint
+follows the nose, the velocity follows the setpoint within max_accel as a vector, and a stop
+brakes straight. The arc above was 2.7 to 20 m off that flight at 5 to 15 m/s (its course
+turned while braking, its speed kept up in a turn), and at 10 m/s the choice took turns it
+could not fly and then braked straight into a safety circle (tests/core/test_copter_rollout.py).
+
 Pure numpy; times in seconds, positions north/east metres, headings LOCAL_NED yaw (rad).
 """
 from __future__ import annotations
