@@ -14,6 +14,13 @@ predicted positions, their radius growing with the track's uncertainty):
 - after ``horizon_s`` the vehicle brakes to a stop along its heading: a command is only
   reachable if stopping after it is too (no state from which every future collides).
 
+A multicopter (a lateral limit and its nose known: Motion.nose_rad) is rolled out as it flies
+its velocity setpoint instead (_fly_copter): the nose turns at the turn rate, the setpoint
+follows the nose, the velocity follows the setpoint within max_accel as a vector, and a stop
+brakes straight. The arc above was 2.7 to 20 m off that flight at 5 to 15 m/s (its course
+turned while braking, its speed kept up in a turn), and at 10 m/s the choice took turns it
+could not fly and then braked straight into a safety circle (tests/core/test_copter_rollout.py).
+
 Pure numpy; times in seconds, positions north/east metres, headings LOCAL_NED yaw (rad).
 """
 from __future__ import annotations
@@ -37,9 +44,12 @@ class VehicleLimits:
     max_accel_mps2: float
     lateral_accel_limited: bool = False      # a multicopter's velocity turns within max_accel
 
-    def motion(self, speed_mps: float, course_rad: float) -> "Motion":
+    def motion(self, speed_mps: float, course_rad: float,
+               nose_rad: float | None = None) -> "Motion":
+        """``nose_rad``: the yaw now (a multicopter's; see Motion.nose_rad)."""
+        copter = self.lateral_accel_limited
         return Motion(self.max_turn_rate_rad_s, self.max_accel_mps2, speed_mps, course_rad,
-                      self.max_accel_mps2 if self.lateral_accel_limited else None)
+                      self.max_accel_mps2 if copter else None, nose_rad if copter else None)
 
 
 @dataclass(frozen=True)
@@ -50,6 +60,8 @@ class Motion:
     speed_mps: float                         # now
     course_rad: float                        # direction of the velocity now
     max_lateral_accel_mps2: float | None = None   # None: the unicycle (turn rate only)
+    nose_rad: float | None = None            # a multicopter's yaw now: with a lateral limit, the
+                                             # roll-out flies its velocity setpoint (_fly_copter)
 
     def turn_rate_at(self, speed_mps: np.ndarray) -> np.ndarray:
         """The fastest turn of the velocity's direction at each speed (rad/s)."""
@@ -79,6 +91,10 @@ def fly_out(start_ne_m: np.ndarray, motion: Motion, headings_rad: np.ndarray,
     cruise_steps = int(math.ceil(horizon_s / STEP_S))
     start = np.asarray(start_ne_m, dtype=float)
     times = STEP_S * np.arange(1, steps + 1)
+    if motion.max_lateral_accel_mps2 is not None and motion.nose_rad is not None:
+        positions, speeds = _fly_copter(start, motion, headings, commanded, steps, cruise_steps,
+                                        fov_rad)
+        return Rollout(times, positions, speeds)
     if j == 1:
         positions, speeds = _fly_one(start, motion, float(headings[0]), float(commanded[0]),
                                      steps, cruise_steps, fov_rad)
@@ -132,6 +148,89 @@ def fly_out(start_ne_m: np.ndarray, motion: Motion, headings_rad: np.ndarray,
         positions[:, k, 1] = east
         speeds[:, k] = speed
     return Rollout(times, positions, speeds)
+
+
+def _fly_copter(start: np.ndarray, motion: Motion, headings: np.ndarray, commanded: np.ndarray,
+                steps: int, cruise_steps: int, fov_rad: float) -> tuple[np.ndarray, np.ndarray]:
+    """fly_out for a multicopter, as the truth flies it (truth.step_copter) from the setpoint the
+    guidance sends (guidance.shape_setpoint): the nose turns toward the command at the turn
+    rate; the setpoint is the speed scaled by the cosine of the nose's remaining error (zero
+    beyond half the view, as union.turn_speed_factor) along the nose's new direction; the
+    velocity moves toward that setpoint at the acceleration limit, as a vector. After the
+    cruise the setpoint is zero: the vehicle brakes in a straight line, as it does when told to
+    stop. Unlike the unicycle's arc, the course does not turn while braking, and the speed is
+    not kept up while the velocity turns. positions (J, N, 2), speeds (J, N). One command runs
+    in Python floats (_fly_copter_one: the same operations in the same order, the same bits)."""
+    if len(headings) == 1:
+        return _fly_copter_one(start, motion, float(headings[0]), float(commanded[0]), steps,
+                               cruise_steps, fov_rad)
+    j = len(headings)
+    max_dv = motion.max_accel_mps2 * STEP_S
+    max_turn = motion.max_turn_rate_rad_s * STEP_S
+    nose = np.full(j, float(motion.nose_rad))
+    vel_n = np.full(j, motion.speed_mps * math.cos(motion.course_rad))
+    vel_e = np.full(j, motion.speed_mps * math.sin(motion.course_rad))
+    north, east = np.full(j, float(start[0])), np.full(j, float(start[1]))
+    positions = np.empty((j, steps, 2))
+    speeds = np.empty((j, steps))
+    for k in range(steps):
+        if k < cruise_steps:
+            error = (headings - nose + math.pi) % TWO_PI - math.pi
+            speed = np.where(np.abs(error) > 0.5 * fov_rad, 0.0, commanded * np.cos(error))
+            nose = nose + np.minimum(np.maximum(error, -max_turn), max_turn)
+            dv_n, dv_e = speed * np.cos(nose) - vel_n, speed * np.sin(nose) - vel_e
+        else:
+            if not (vel_n.any() or vel_e.any()):     # all at rest: nothing moves any more
+                positions[:, k:] = positions[:, k - 1:k]
+                speeds[:, k:] = 0.0
+                break
+            dv_n, dv_e = -vel_n, -vel_e
+        norm = np.sqrt(dv_n * dv_n + dv_e * dv_e)       # as truth.step_copter: limited beyond
+        scale = np.where(norm > max_dv, max_dv / np.maximum(norm, 1e-12), 1.0)
+        dv_n, dv_e = dv_n * scale, dv_e * scale
+        north = north + (vel_n + 0.5 * dv_n) * STEP_S
+        east = east + (vel_e + 0.5 * dv_e) * STEP_S
+        vel_n, vel_e = vel_n + dv_n, vel_e + dv_e
+        positions[:, k, 0] = north
+        positions[:, k, 1] = east
+        speeds[:, k] = np.sqrt(vel_n * vel_n + vel_e * vel_e)
+    return positions, speeds
+
+
+def _fly_copter_one(start: np.ndarray, motion: Motion, heading: float, commanded: float,
+                    steps: int, cruise_steps: int, fov_rad: float) -> tuple[np.ndarray, np.ndarray]:
+    """_fly_copter's loop for one command in Python floats: positions (1, N, 2), speeds (1, N)."""
+    max_dv = motion.max_accel_mps2 * STEP_S
+    max_turn = motion.max_turn_rate_rad_s * STEP_S
+    half_fov, pi, cos, sin, sqrt = 0.5 * fov_rad, math.pi, math.cos, math.sin, math.sqrt
+    nose = float(motion.nose_rad)
+    vel_n = motion.speed_mps * cos(motion.course_rad)
+    vel_e = motion.speed_mps * sin(motion.course_rad)
+    north, east = float(start[0]), float(start[1])
+    path: list[float] = []
+    speeds: list[float] = []
+    for k in range(steps):
+        if k < cruise_steps:
+            error = (heading - nose + pi) % TWO_PI - pi
+            speed = 0.0 if abs(error) > half_fov else commanded * cos(error)
+            nose = nose + min(max(error, -max_turn), max_turn)
+            dv_n, dv_e = speed * cos(nose) - vel_n, speed * sin(nose) - vel_e
+        else:
+            if vel_n == 0.0 and vel_e == 0.0:
+                path += path[-2:] * (steps - k)
+                speeds += [0.0] * (steps - k)
+                break
+            dv_n, dv_e = -vel_n, -vel_e
+        norm = sqrt(dv_n * dv_n + dv_e * dv_e)
+        scale = max_dv / norm if norm > max_dv else 1.0
+        dv_n, dv_e = dv_n * scale, dv_e * scale
+        north = north + (vel_n + 0.5 * dv_n) * STEP_S
+        east = east + (vel_e + 0.5 * dv_e) * STEP_S
+        vel_n, vel_e = vel_n + dv_n, vel_e + dv_e
+        path.append(north)
+        path.append(east)
+        speeds.append(sqrt(vel_n * vel_n + vel_e * vel_e))
+    return np.array(path).reshape(1, steps, 2), np.array(speeds).reshape(1, steps)
 
 
 def _fly_one(start: np.ndarray, motion: Motion, heading: float, commanded: float, steps: int,

@@ -875,7 +875,7 @@ class Navigator:
         if self.limits is None:
             return None
         speed, course = self._velocity_now or (self.params.cruise_speed_mps, float(pose[2]))
-        return self.limits.motion(speed, course)
+        return self.limits.motion(speed, course, float(pose[2]))
 
     def _flight_pose(self, pose: np.ndarray) -> np.ndarray:
         """The pose guidance sees: while the nose looks at a mover, its yaw is the direction the

@@ -30,9 +30,8 @@ def scenario(tmp_path, name: str, obstacles: list[dict], **avoidance) -> str:
 
 def test_a_way_blocked_all_round_stops_the_vehicle_short_of_every_circle(tmp_path):
     """A ring of overlapping circles round the start (8 obstacles 10.7 m apart on a 14 m
-    circle): no way keeps d but a few metres round the start. The vehicle moves off toward the
-    goal, brakes and stays (mostly stopped) inside, at least d from every obstacle; it never
-    turns across the ring."""
+    circle): no way keeps d but a few metres round the start. The vehicle stays (mostly
+    stopped) inside, at least d from every obstacle; it never turns across the ring."""
     ring = [{"id": i + 1, "north_m": 20.0 + RING_RADIUS_M * math.cos(2 * math.pi * i / 8),
              "east_m": RING_RADIUS_M * math.sin(2 * math.pi * i / 8), "radius_m": 1.0}
             for i in range(8)]
@@ -62,7 +61,10 @@ def test_a_way_blocked_all_round_stops_the_vehicle_short_of_every_circle(tmp_pat
                     for r in flying for o in r["obstacles"])
     assert clearance >= 0.95 * SAFETY_M
     farthest = max(math.hypot(r["north_m"] - 20.0, r["east_m"]) for r in flying)
-    assert 0.5 < farthest <= RING_RADIUS_M - 0.95 * SAFETY_M     # it went, and stayed inside
+    # it stayed inside: a multicopter flies its setpoint straight (arc._fly_copter), so even a
+    # quarter speed for the roll-out's horizon leaves the few metres that keep d and it holds
+    # still (the unicycle's arc circled at 2.4 m radius in there and crept 2.2 m off the start)
+    assert farthest <= RING_RADIUS_M - 0.95 * SAFETY_M
     # boxed in, it stays stopped (turning in place to look round, creeping a metre now and then)
     last = [math.hypot(r["vel_north_mps"], r["vel_east_mps"])
             for r in truth if r["t_s"] >= FLOWN_S - 20.0]

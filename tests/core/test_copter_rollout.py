@@ -1,0 +1,98 @@
+"""Issue 16 at 10-15 m/s on the multicopter: the velocity choice's roll-out (arc.fly_out) is the
+path the multicopter flies (truth.step_copter from guidance.shape_setpoint's setpoints), not the
+unicycle's arc: its nose turns at the turn rate ahead of a velocity that turns within the
+acceleration limit, the speed setpoint follows the nose, and told to stop it brakes straight."""
+import math
+
+import numpy as np
+import pytest
+
+from companion.config import load_scenario
+from companion.core.arc import VehicleLimits, clearance, fly_out
+from companion.core.guidance import GuidanceCommand, shape_setpoint
+from companion.core.union import turn_speed_factor
+from companion.truth import TruthWorld
+
+FOV = math.radians(90.0)
+HORIZON_S = 4.0
+
+
+@pytest.fixture(scope="module")
+def copter():
+    return load_scenario("config/scenarios/copter.yaml")
+
+
+def flown(scenario, speed, course, nose, heading, cruise, horizon_s=HORIZON_S, total_s=12.0):
+    """The truth multicopter's path from the origin: (speed, course) now, the nose at ``nose``,
+    the command (cruise, heading) held for ``horizon_s`` (its speed scaled by the nose's error at
+    every decision, as the velocity choice does), then a stop; positions every 0.1 s."""
+    truth = TruthWorld(scenario, np.random.default_rng(0))
+    truth.pose = np.array([0.0, 0.0, nose])
+    truth.vel_ne_mps = speed * np.array([math.cos(course), math.sin(course)])
+    vehicle = scenario.vehicle
+    shaped, path = None, []
+    for step in range(round(total_s / vehicle.dt_s)):
+        t = step * vehicle.dt_s
+        factor = turn_speed_factor(truth.pose[2], heading, FOV) if t < horizon_s - 1e-9 else 0.0
+        command = GuidanceCommand(cruise * factor, heading, "avoid")
+        shaped = shape_setpoint(truth.pose[2], shaped, command, vehicle.max_turn_rate_rad_s,
+                                vehicle.dt_s, math.inf)
+        truth.step_copter(shaped.speed_mps * np.array([math.cos(shaped.course_rad),
+                                                       math.sin(shaped.course_rad)]),
+                          shaped.yaw_rad)
+        path.append(truth.pose[:2].copy())
+    return np.array(path)
+
+
+def rolled(scenario, speed, course, nose, heading, cruise):
+    vehicle = scenario.vehicle
+    limits = VehicleLimits(vehicle.max_turn_rate_rad_s, vehicle.max_accel_mps2,
+                           lateral_accel_limited=True)
+    return fly_out(np.zeros(2), limits.motion(speed, course, nose), np.array([heading]),
+                   np.array([cruise]), HORIZON_S, FOV)
+
+
+@pytest.mark.parametrize("speed, course_deg, nose_deg, heading_deg, cruise", [
+    (7.3, 48.0, 77.0, 105.0, 10.0),      # dense seed 7 at 10 m/s: the nose 30 deg ahead
+    (10.0, 0.0, 0.0, 60.0, 10.0),        # a sharp turn at cruise
+    (15.0, 0.0, 0.0, 40.0, 15.0),
+    (15.0, 0.0, 0.0, -100.0, 15.0),      # beyond the view: the nose turns, the speed falls
+])
+def test_the_roll_out_is_the_path_the_multicopter_flies(copter, speed, course_deg, nose_deg,
+                                                        heading_deg, cruise):
+    course, nose, heading = (math.radians(a) for a in (course_deg, nose_deg, heading_deg))
+    roll = rolled(copter, speed, course, nose, heading, cruise)
+    truth = flown(copter, speed, course, nose, heading, cruise)
+    t_truth = copter.vehicle.dt_s * np.arange(1, len(truth) + 1)
+    at = np.stack([np.interp(roll.times_s, t_truth, truth[:, i]) for i in (0, 1)], axis=1)
+    error = np.hypot(*(roll.positions[0] - at).T)
+    assert error.max() < 2.0          # 0.2-1.5 m; the unicycle's arc was 2.7 to 20 m off these
+
+
+def test_a_stop_is_a_straight_brake_not_a_turn_away(copter):
+    # 10 m/s north, a post 16 m ahead and 7 m to the right: braking straight (what a zero
+    # setpoint flies) passes 7 m from it, inside d = 10 m; the unicycle's arc turned left while
+    # braking and called a stop toward the west safe.
+    post, d = np.array([[16.0, 7.0]]), np.array([10.0])
+    stop = rolled(copter, 10.0, 0.0, 0.0, -math.pi / 2, 0.0)
+    truth = flown(copter, 10.0, 0.0, 0.0, -math.pi / 2, 0.0, horizon_s=0.0)
+    truth_margin = float(np.min(np.hypot(*(truth - post[0]).T)) - d[0])
+    assert truth_margin < -2.0
+    assert float(clearance(stop, post, d)[0]) == pytest.approx(truth_margin, abs=0.5)
+
+
+def test_one_command_alone_rolls_out_to_the_same_bits_as_among_many(copter):
+    headings = np.radians([-170.0, -100.0, -44.0, 0.0, 30.0, 46.0, 105.0])
+    speeds = np.array([15.0, 10.0, 10.0, 0.0, 7.5, 10.0, 12.0])
+    vehicle = copter.vehicle
+    motion = VehicleLimits(vehicle.max_turn_rate_rad_s, vehicle.max_accel_mps2,
+                           lateral_accel_limited=True).motion(8.0, 0.4, 0.9)
+    many = fly_out(np.array([3.0, -2.0]), motion, headings, speeds, HORIZON_S, FOV)
+    for i, (heading, speed) in enumerate(zip(headings, speeds)):
+        one = fly_out(np.array([3.0, -2.0]), motion, np.array([heading]), np.array([speed]),
+                      HORIZON_S, FOV)
+        n = len(one.times_s)       # fewer steps at a lower top speed: stopped by then
+        assert np.array_equal(one.positions[0], many.positions[i, :n])
+        assert np.array_equal(one.speeds[0], many.speeds[i, :n])
+        assert np.all(many.positions[i, n:] == one.positions[0, -1])
+        assert one.speeds[0, -1] == pytest.approx(0.0, abs=1e-9)
