@@ -158,6 +158,26 @@ def test_dense_worlds_at_15_mps_keep_the_safety_distance(tmp_path):
     assert agg["success_rate"] >= 7 / 8
 
 
+def test_random_worlds_keep_the_start_clear_by_the_reaction_and_braking_distance():
+    """A post the vehicle first sees when it starts cruising must be one it can stop for: the
+    way flown while the post is still tentative (paper.yaml: a 5-frame confirmation window at
+    5 Hz, 1 s) plus the braking distance at 2.5 m/s^2, beyond d. At 10 m/s: 10 + 10 + 20 m. With
+    the braking distance alone (30 m) dense seeds 5, 36, 39, 59, 68, 74 and 80 had a post 29.6 to
+    31.8 m ahead that the multicopter could neither stop for nor pass at d."""
+    import numpy as np
+
+    from companion.config import load_scenario
+    from companion.simulation import with_speed
+    from companion.worlds import random_world
+
+    base = with_speed(load_scenario("config/scenarios/paper.yaml"), 10.0)
+    assert base.vehicle.max_accel_mps2 == 2.5 and base.sensor.rate_hz == 5.0
+    nearest = min(np.hypot(o.north_m - w.world.start.north_m, o.east_m - w.world.start.east_m)
+                  for w in (random_world(base, "dense", seed) for seed in (5, 36, 39, 59, 80))
+                  for o in w.world.obstacles)
+    assert nearest >= 10.0 + 10.0 * 1.0 + 10.0 ** 2 / (2 * 2.5)
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("speed", ["10", "15"])
 def test_dense_worlds_at_speed_acceptance(tmp_path, speed):
