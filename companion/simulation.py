@@ -64,7 +64,7 @@ def make_navigator(scenario: Scenario, strategy: str | None = None) -> Navigator
                                          perception_delay_s=perception_delay_s(est, scenario)),
                      mover_params=est.mover_params(), options=est.options(),
                      limits=vehicle_limits(scenario), look_at=look_at_params(scenario),
-                     goal_look=goal_look_params(scenario))
+                     goal_look=scenario.goal_look_params())
 
 
 def look_at_params(scenario: Scenario) -> LookAtParams | None:
@@ -74,11 +74,6 @@ def look_at_params(scenario: Scenario) -> LookAtParams | None:
         return None
     return LookAtParams(avoidance.union_params(scenario.sensor.fov_rad).fov_rad,
                         avoidance.lookahead_s, 2.0 * avoidance.safety_distance_m)
-
-
-def goal_look_params(scenario: Scenario):
-    """avoidance.goal_look_deg (a multicopter's only: the scenario refuses it for a unicycle)."""
-    return scenario.goal_look_params() if scenario.vehicle.kind == "multicopter" else None
 
 
 def perception_delay_s(est, scenario: Scenario) -> float:

@@ -15,6 +15,7 @@ import numpy as np
 
 from companion.config import Building, Goal, Obstacle, Point, Scenario, StartPose, Wall, World
 from companion.core import shapes
+from companion.core.arc import stopping_distance_m
 from companion.simulation import perception_delay_s
 
 
@@ -54,9 +55,9 @@ def start_stopping_m(base: Scenario) -> float:
     with paper.yaml's 2.5 m/s^2 and its 1 s delay (a confirmation window of 5 frames at 5 Hz):
     10 + 20 m (the braking distance alone, 20 m, left posts 30 m ahead of the start that the
     multicopter could neither stop for nor pass at d: dense seeds 5, 36, 39, 59, 68, 74, 80)."""
-    v = base.vehicle.speed_mps
-    delay_s = perception_delay_s(base.estimator_config(), base)
-    return v * delay_s + v ** 2 / (2.0 * base.vehicle.max_accel_mps2)
+    return stopping_distance_m(base.vehicle.speed_mps,
+                               perception_delay_s(base.estimator_config(), base),
+                               base.vehicle.max_accel_mps2)
 
 
 def random_world(base: Scenario, kind: str, seed: int) -> Scenario:

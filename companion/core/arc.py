@@ -37,6 +37,12 @@ MAX_GROWTH_M = 5.0               # a mover's radius grows by at most this over a
                                  # track whose velocity is barely known must not wall off the sky
 
 
+def stopping_distance_m(speed_mps: float, delay_s: float, max_accel_mps2: float) -> float:
+    """How far a vehicle at ``speed_mps`` goes before it has stopped for an obstacle it has just
+    seen: ``delay_s`` on at that speed (until the obstacle counts), then braking at the limit."""
+    return speed_mps * delay_s + speed_mps * speed_mps / (2.0 * max_accel_mps2)
+
+
 @dataclass(frozen=True)
 class VehicleLimits:
     """The vehicle's velocity limits, from its config (SI units, radians)."""

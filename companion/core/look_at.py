@@ -87,12 +87,13 @@ def threat_to_watch(position_ne_m: np.ndarray, course_rad: float, speed_mps: flo
 # ``gain`` times the swerve, at most ``max_offset_rad`` from the flight direction (less than half
 # the view: the flight direction stays in view, and ``max_offset_rad`` to spare on the far side is
 # what stays of it). Only the yaw: the velocity is the choice's.
-# Measured (copter.yaml traffic, 100 runs, 30 degrees): gain 1.5 gives 0.99 / 0.96 / 0.90 on seeds
-# 0-99 / 100-199 / 200-299, against 0.94 / 0.93 / 0.91 without, no collision either way; gain 1
-# 0.96 / 0.95 / 0.91 with one collision (seed 283, after a turn of 100 to 130 degrees off the goal
-# that no 30 degree look reaches). Dense 1.00 and moving 1.00 with it; dense at 10 and 15 m/s
-# 0.69 and 0.79 with it, 0.66 and 0.69 without (the copter passes posts at 6 to 9.5 m there
-# either way, never collides).
+# Measured (copter.yaml traffic, 100 runs, seeds 0-99 / 100-199 / 200-299, with the copter
+# roll-out of arc.py): gain 1.5 at 20 degrees 0.97 / 0.98 / 0.95, no collision; at 30 degrees
+# 0.99 / 0.97 / 0.96 with one collision (seed 281: a crosser 20 to 28 degrees off the course on the
+# swerve's side, beyond the 15 degrees of view left past the course). Without the look (before
+# the copter roll-out) 0.94 / 0.93 / 0.91; then too, gain 1 at 30 degrees gave one collision (seed 283, after
+# a turn of 100 to 130 degrees off the goal that no look reaches). Dense 1.00 and moving 1.00 with
+# it (20 degrees).
 # What stays: head-on movers tracked but passed at 3 to 9 m (the choice, not the view), and
 # crossers 45 to 60 degrees off a course that is straight at the goal (no swerve: no look).
 #

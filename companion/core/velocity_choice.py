@@ -23,7 +23,8 @@ from dataclasses import replace
 
 import numpy as np
 
-from companion.core.arc import Motion, Rollout, clearance, fly_out, margins_by_obstacle
+from companion.core.arc import (Motion, Rollout, clearance, fly_out, margins_by_obstacle,
+                                stopping_distance_m)
 from companion.core.geometry import wrap_angles
 from companion.core.guidance import GuidanceCommand, GuidanceParams
 from companion.core.seen_space import SeenSpace
@@ -229,7 +230,7 @@ def look_flyable(pose: np.ndarray, heading: float, speed: float, params: Guidanc
 
 def _stopping_m(speed: float, motion: Motion, union: UnionParams) -> float:
     """How far the vehicle goes before a new obstacle enters the decision and it has stopped."""
-    return speed * union.perception_delay_s + speed * speed / (2.0 * motion.max_accel_mps2)
+    return stopping_distance_m(speed, union.perception_delay_s, motion.max_accel_mps2)
 
 
 def _unseen_margin(seen: SeenSpace | None, position: np.ndarray, motion: Motion,
