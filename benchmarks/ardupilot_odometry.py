@@ -29,10 +29,10 @@ from pathlib import Path
 os.environ.setdefault("MAVLINK20", "1")
 from pymavlink import mavutil  # noqa: E402
 
-from companion.adapters import codec  # noqa: E402
-from companion.config import load_config  # noqa: E402
-from companion.core.consistency import radius_2sigma_m  # noqa: E402
-from companion.pipeline import Pipeline  # noqa: E402
+from companion.mavlink import codec  # noqa: E402
+from companion.config.schema import load_config  # noqa: E402
+from companion.core.estimation.consistency import radius_2sigma_m  # noqa: E402
+from companion.onboard.pipeline import Pipeline  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 INSTANCE = 7

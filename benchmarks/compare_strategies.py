@@ -13,9 +13,9 @@ import time
 
 import numpy as np
 
-from companion.config import load_scenario
-from companion.simulation import run_once
-from companion.worlds import random_world
+from companion.config.schema import load_scenario
+from companion.sim.simulation import run_once
+from companion.sim.worlds import random_world
 
 
 def main() -> None:

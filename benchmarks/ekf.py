@@ -19,7 +19,7 @@ import time
 import numpy as np
 from scipy.linalg.blas import dgemm
 
-from companion.core.ekf_slam import (LANDMARK_DIM, AssociationGates, EkfSlam, Observation,
+from companion.core.estimation.ekf_slam import (LANDMARK_DIM, AssociationGates, EkfSlam, Observation,
                                       SlamNoise)
 from companion.core.geometry import observe
 from tests.core.dense_reference import DenseEkfSlam

@@ -16,9 +16,9 @@ import time
 
 import numpy as np
 
-from companion.config import load_scenario
-from companion.simulation import run_once, with_speed
-from companion.worlds import random_world
+from companion.config.schema import load_scenario
+from companion.sim.simulation import run_once, with_speed
+from companion.sim.worlds import random_world
 
 ROWS = ("sparse@5", "dense@5", "dense@10", "dense@15", "moving@5", "head-on@5", "crossing@5",
         "overtaking@5", "traffic@5", "gate@5", "gate@5+gaps", "trap@5", "dense@5+gaps")

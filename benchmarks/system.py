@@ -4,7 +4,7 @@ and the daemon's memory, all from one run of ``benchmarks/run.py``.
 - Flights are real ``companion demo`` runs (sitl-stub, `companion run` and a ground station as
   separate processes over loopback), each recording the daemon's tlog.
 - Latency, in the daemon: its tlog stamps each inbound record when the link received the
-  datagram and each outbound one when it was handed to the socket (mavlink_link.py). The
+  datagram and each outbound one when it was handed to the socket (companion/mavlink/link.py). The
   pipeline holds a camera frame (its obstacle reports of one time) until a message that is not
   part of it arrives, and decides then; so t(first SET_POSITION_TARGET_LOCAL_NED sent after the
   message that closed the frame, before the next inbound one) - t(the frame's last report), and
@@ -20,7 +20,7 @@ and the daemon's memory, all from one run of ``benchmarks/run.py``.
   tlog is on the vehicle clock there, so the wall time comes from the demo's ground station
   (``flight_sim_s`` over ``flight_wall_s``: from the first step after the wait for the daemon to
   the arrival; start-up excluded).
-- Replay: ``companion.replay.replay_tlog`` called in-process (no interpreter start-up) on the
+- Replay: ``companion.tools.replay.replay_tlog`` called in-process (no interpreter start-up) on the
   corridor flight's tlog, alternating with pymavlink parsing the same file, medians.
 - Memory: the daemon child's VmHWM (/proc), read every 20 ms while each demo runs.
 """
@@ -40,9 +40,9 @@ import numpy as np
 import psutil
 
 from benchmarks import probe
-from companion.adapters.tlog import TlogReader
-from companion.config import config_to_dict, load_config, load_scenario
-from companion.demo import demo_config
+from companion.mavlink.tlog import TlogReader
+from companion.config.schema import config_to_dict, load_config, load_scenario
+from companion.tools.demo import demo_config
 
 ROOT = Path(__file__).resolve().parent.parent
 PAPER = ROOT / "config/scenarios/paper.yaml"
@@ -325,7 +325,7 @@ def measure_replay(tlog: Path, reps: int) -> dict:
     from pymavlink import mavutil
 
     from companion.core import navigator
-    from companion.replay import replay_tlog
+    from companion.tools.replay import replay_tlog
     config = load_config(tlog.with_suffix(".config.yaml"))
     parse_s, replay_s, messages, parsed = [], [], 0, 0
     for _ in range(reps):

@@ -31,7 +31,7 @@ def build_parser() -> argparse.ArgumentParser:
                         help="more logging (-v info, -vv debug)")
     sub = parser.add_subparsers(dest="command", required=True)
     for name in COMMANDS:
-        importlib.import_module(f"companion.commands.{name}").add_parser(sub)
+        importlib.import_module(f"companion.cli.{name}").add_parser(sub)
     return parser
 
 

@@ -8,13 +8,13 @@ from types import SimpleNamespace
 
 import pytest
 
-from companion import ardupilot_sitl as sitl
+from companion.tools import ardupilot_sitl as sitl
 from companion.__main__ import main
-from companion.adapters.codec import mavlink
-from companion.autopilot_demo import service_config, sitl_home
-from companion.config import load_config, load_scenario
+from companion.mavlink.codec import mavlink
+from companion.tools.autopilot_demo import service_config, sitl_home
+from companion.config.schema import load_config, load_scenario
 from companion.core.flat_earth import to_lat_lon_deg, to_north_east_m
-from companion.flight_record import FlightRecorder, takeoff_checks
+from companion.tools.flight_record import FlightRecorder, takeoff_checks
 
 REPO = Path(__file__).resolve().parents[1]
 PAPER = load_scenario(REPO / "config" / "scenarios" / "paper.yaml")
@@ -138,9 +138,9 @@ def test_the_autopilot_demo_refuses_clearly(tmp_path, monkeypatch, capsys):
 
 
 def test_a_disarm_before_arrival_stops_the_demo_with_the_autopilots_words():
-    from companion.autopilot_demo import _not_disarmed
-    from companion.demo import DemoError
-    from companion.flight_record import VehicleState
+    from companion.tools.autopilot_demo import _not_disarmed
+    from companion.tools.demo import DemoError
+    from companion.tools.flight_record import VehicleState
     state = VehicleState(armed_t_s=42.0, relative_alt_m=0.0,
                          status_texts=["42.0 s: Arming motors", "52.0 s: Disarming motors"])
     assert _not_disarmed(state)

@@ -2,9 +2,9 @@
 holds a camera frame (its reports of one time) until a message that is not part of it, so the
 reacting setpoint follows that closing message (benchmarks once found no samples at all)."""
 from benchmarks.system import tlog_latencies_ns
-from companion.adapters import codec
-from companion.adapters.codec import mavlink
-from companion.adapters.tlog import TlogWriter
+from companion.mavlink import codec
+from companion.mavlink.codec import mavlink
+from companion.mavlink.tlog import TlogWriter
 
 T0_US = 1_700_000_000_000_000
 VEHICLE, CAMERA, US = codec.Encoder(1, 1), codec.Encoder(1, 100), codec.Encoder(1, 191)

@@ -16,9 +16,9 @@ import numpy as np
 import pytest
 
 from companion.__main__ import main
-from companion.campaign import chunks, runs_per_task
-from companion.config import load_scenario
-from companion.simulation import aggregate, run_once
+from companion.tools.campaign import chunks, runs_per_task
+from companion.config.schema import load_scenario
+from companion.sim.simulation import aggregate, run_once
 
 pytest.importorskip("distributed", reason="the cluster extra is not installed")
 

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 import yaml
 
-from companion.config import load_scenario
-from companion.simulation import run_once
+from companion.config.schema import load_scenario
+from companion.sim.simulation import run_once
 from tests.e2e.support import REPO
 
 MOVER = {"id": 3, "north_m": 50.0, "east_m": 20.0, "radius_m": 1.0,

@@ -154,7 +154,7 @@ def test_dense_worlds_at_15_mps_keep_the_safety_distance(tmp_path):
     agg = report["aggregate"]
     assert agg["collision_rate"] == 0.0 and agg["min_clearance_m"]["min"] >= 9.5
     # seed 5 flew into a pocket of circles and dithered at its mouth until the time-out before
-    # the commitment by progress (core/commitment.py); it now arrives: one failure is allowed
+    # the commitment by progress (core/avoidance/commitment.py); it now arrives: one failure is allowed
     assert agg["success_rate"] >= 7 / 8
 
 
@@ -166,9 +166,9 @@ def test_random_worlds_keep_the_start_clear_by_the_reaction_and_braking_distance
     31.8 m ahead that the multicopter could neither stop for nor pass at d."""
     import numpy as np
 
-    from companion.config import load_scenario
-    from companion.simulation import with_speed
-    from companion.worlds import random_world
+    from companion.config.schema import load_scenario
+    from companion.sim.simulation import with_speed
+    from companion.sim.worlds import random_world
 
     base = with_speed(load_scenario("config/scenarios/paper.yaml"), 10.0)
     assert base.vehicle.max_accel_mps2 == 2.5 and base.sensor.rate_hz == 5.0
@@ -200,9 +200,9 @@ def test_a_gate_of_2d_plus_2m_is_flown_through():
     (the straight line is 198 m; round the wall about 300 m)."""
     import dataclasses
 
-    from companion.config import load_scenario
-    from companion.simulation import run_once
-    from companion.worlds import gate_world
+    from companion.config.schema import load_scenario
+    from companion.sim.simulation import run_once
+    from companion.sim.worlds import gate_world
     base = load_scenario("config/scenarios/paper.yaml")
     base = dataclasses.replace(base, avoidance=dataclasses.replace(base.avoidance, gap_margin_m=1.0))
     for seed in (0, 1):
@@ -215,9 +215,9 @@ def test_a_gate_of_2d_plus_2m_is_flown_through():
 def test_a_u_trap_is_escaped():
     """A U of posts opening toward the start, across the straight line."""
     report_runs = []
-    from companion.config import load_scenario
-    from companion.simulation import run_once
-    from companion.worlds import trap_world
+    from companion.config.schema import load_scenario
+    from companion.sim.simulation import run_once
+    from companion.sim.worlds import trap_world
     for seed in (0, 1, 2):
         summary = run_once(trap_world(load_scenario("config/scenarios/paper.yaml"), seed),
                            seed).summary

@@ -8,10 +8,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 
-from companion.core.consistency import Consistency, MonitorParams, chi2_quantile
-from companion.core.ekf_slam import VelocityNoise, chi2_2dof_quantile
-from companion.core.guidance import GuidanceCommand
-from companion.core.lifecycle import LifecycleParams
+from companion.core.estimation.consistency import Consistency, MonitorParams, chi2_quantile
+from companion.core.estimation.ekf_slam import VelocityNoise, chi2_2dof_quantile
+from companion.core.avoidance.guidance import GuidanceCommand
+from companion.core.estimation.lifecycle import LifecycleParams
 
 MOTION_MODELS = ("paper", "velocity_ned")
 REACTIONS = ("none", "slow", "hold")
@@ -27,9 +27,9 @@ class EstimatorOptions:
     Position fixes (``correct_position``) are fused at most once per ``position_period_s``.
     A landmark corrects the pose only once established: past probation and seen
     ``established_sightings`` times. Arrival needs the pose's 2-sigma radius within
-    ``arrival_tolerance_m``. ``lifecycle``: tentative / confirmed / deleted (core/lifecycle.py). Reactions to 'degraded' / 'lost': 'none', 'slow' (speed times
+    ``arrival_tolerance_m``. ``lifecycle``: tentative / confirmed / deleted (core/estimation/lifecycle.py). Reactions to 'degraded' / 'lost': 'none', 'slow' (speed times
     ``slow_factor``) or 'hold'. ``range_sigma_k_per_m``: the filter's range sigma grows as
-    floor + k r^2 (core/range_noise.py; the floor is SlamNoise.range_sigma_m), 0: constant.
+    floor + k r^2 (core/estimation/range_noise.py; the floor is SlamNoise.range_sigma_m), 0: constant.
     ``yaw_bias_sigma_rad``, ``yaw_bias_tau_s``: the autopilot's yaw error is white
     (``yaw_sigma_rad``) plus a slow bias (a compass's: Gauss-Markov, this sigma and correlation
     time), so successive yaw samples are not independent (``yaw_fix_sigma_rad``).

@@ -11,25 +11,25 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from companion.core.association import associate_frame
-from companion.core.blobs import SurfacePoint
-from companion.core.commitment import Commitment
-from companion.core.seen_space import SeenSpace
-from companion.core.consistency import Consistency, ConsistencyMonitor
-from companion.core.flank_scan import FlankScan, FlankScanParams
-from companion.core.ekf_slam import AssociationGates, EkfSlam, Observation, SlamNoise, UpdateReport
+from companion.core.estimation.association import associate_frame
+from companion.core.perception.blobs import SurfacePoint
+from companion.core.avoidance.commitment import Commitment
+from companion.core.avoidance.seen_space import SeenSpace
+from companion.core.estimation.consistency import Consistency, ConsistencyMonitor
+from companion.core.avoidance.flank_scan import FlankScan, FlankScanParams
+from companion.core.estimation.ekf_slam import AssociationGates, EkfSlam, Observation, SlamNoise, UpdateReport
 from companion.core.estimator_options import EstimatorOptions, moderate
 from companion.core.geometry import move, move_velocity, place, wrap_angle
-from companion.core.lifecycle import Lifecycle, expected_visible
-from companion.core.motion_evidence import is_straight_track, shared_yaw_velocity_cov
-from companion.core.range_noise import with_range_model
-from companion.core.surface_cover import covering_nis
-from companion.core.guidance import GuidanceCommand, GuidanceParams, guide_apf, guide_cone
-from companion.core.arc import Motion, VehicleLimits
-from companion.core.look_at import GoalLookParams, LookAtParams, goal_look_yaw, threat_to_watch
-from companion.core.movers import (MoverParams, MoverTracker, apparent_velocity, mover_growth,
+from companion.core.estimation.lifecycle import Lifecycle, expected_visible
+from companion.core.estimation.motion_evidence import is_straight_track, shared_yaw_velocity_cov
+from companion.core.estimation.range_noise import with_range_model
+from companion.core.perception.surface_cover import covering_nis
+from companion.core.avoidance.guidance import GuidanceCommand, GuidanceParams, guide_apf, guide_cone
+from companion.core.avoidance.arc import Motion, VehicleLimits
+from companion.core.avoidance.look_at import GoalLookParams, LookAtParams, goal_look_yaw, threat_to_watch
+from companion.core.estimation.movers import (MoverParams, MoverTracker, apparent_velocity, mover_growth,
                                    mover_spread, start_evidence, world_measurement)
-from companion.core.union import UnionParams, guide_union
+from companion.core.avoidance.union import UnionParams, guide_union
 
 # An observation frame stamped at most this much after the last odometry is processed at once
 # (the pose is that close); a later one waits for the odometry that covers its time.
@@ -91,9 +91,9 @@ class Navigator:
                  goal_look: GoalLookParams | None = None) -> None:
         """``limits``: the union law chooses velocities the vehicle can fly (arc.py). ``look_at``
         (a multicopter's only): its nose may turn toward a tracked mover it cannot see
-        (core/look_at.py); the command then carries ``yaw_rad``. ``goal_look`` (a multicopter's
+        (core/avoidance/look_at.py); the command then carries ``yaw_rad``. ``goal_look`` (a multicopter's
         only): while it watches nothing, its nose turns toward the goal's direction when the
-        velocity swerves (core/look_at.py goal_look_yaw)."""
+        velocity swerves (core/avoidance/look_at.py goal_look_yaw)."""
         if strategy not in STRATEGIES:
             raise ValueError(f"unknown strategy {strategy!r}")
         self.slam = EkfSlam(start_pose, start_pose_cov, noise, gates)
@@ -463,7 +463,7 @@ class Navigator:
 
     def _observe_anonymous(self, obs: Observation, used: set[int], plan=None) -> UpdateReport:
         """An observation without an id: the frame's joint association first (``plan``, from
-        core/association.py: (action, landmark key)), then a young landmark that may have moved
+        core/estimation/association.py: (action, landmark key)), then a young landmark that may have moved
         (a gate as wide as a mover's top speed allows), then the mover tracks, then a new
         landmark unless it was ambiguous. Id-less landmarks get internal negative ids (never
         published)."""
@@ -507,7 +507,7 @@ class Navigator:
 
     def _observe_surface(self, obs: SurfacePoint, z: np.ndarray, paired: int | None) -> UpdateReport:
         """A wall's or a face's chain point: it updates the landmark the frame's association
-        paired it with (``paired``, a key) if that landmark covers it (core/surface_cover.py);
+        paired it with (``paired``, a key) if that landmark covers it (core/perception/surface_cover.py);
         else it is ambiguous if another one covers it, and surface the map does not hold yet (a
         new landmark) if none does. Never a young landmark 'moved' there (a wall does not move;
         its chain points fall elsewhere along it every frame) and never a mover's."""

@@ -18,8 +18,8 @@ import math
 
 import numpy as np
 
-from companion.core.guidance import inflated_radius
-from companion.core.union import blocking
+from companion.core.avoidance.guidance import inflated_radius
+from companion.core.avoidance.union import blocking
 from companion.errors import ConfigError
 
 log = logging.getLogger(__name__)

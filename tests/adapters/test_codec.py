@@ -3,8 +3,8 @@ import math
 
 import pytest
 
-from companion.adapters import codec
-from companion.adapters.codec import mavlink
+from companion.mavlink import codec
+from companion.mavlink.codec import mavlink
 
 
 def roundtrip(msg, sysid=1, compid=1):

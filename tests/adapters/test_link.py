@@ -6,8 +6,8 @@ import time
 
 import pytest
 
-from companion.adapters import codec
-from companion.adapters.mavlink_link import open_link, parse_url
+from companion.mavlink import codec
+from companion.mavlink.link import open_link, parse_url
 from companion.errors import LinkError
 
 

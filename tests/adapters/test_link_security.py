@@ -6,9 +6,9 @@ import socket
 
 import pytest
 
-from companion.adapters import codec
-from companion.adapters.codec import mavlink
-from companion.adapters.mavlink_link import open_link
+from companion.mavlink import codec
+from companion.mavlink.codec import mavlink
+from companion.mavlink.link import open_link
 
 KEY = bytes(range(32))
 RECV_WAIT_S = 2.0            # bound on every wait for a datagram that should arrive

@@ -3,9 +3,9 @@ import random
 
 from pymavlink import mavutil
 
-from companion.adapters import codec
-from companion.adapters.codec import mavlink
-from companion.adapters.tlog import TlogReader, TlogWriter
+from companion.mavlink import codec
+from companion.mavlink.codec import mavlink
+from companion.mavlink.tlog import TlogReader, TlogWriter
 
 T0_US = 1_700_000_000_000_000
 

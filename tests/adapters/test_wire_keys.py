@@ -4,7 +4,7 @@ import math
 
 import numpy as np
 
-from companion.adapters import codec
+from companion.mavlink import codec
 
 
 def test_setpoint_key_shortcut_equals_pack_then_parse():

@@ -4,9 +4,9 @@ import dataclasses
 
 import numpy as np
 
-from companion.config import load_scenario
-from companion.simulation import make_navigator
-from companion.truth import TruthWorld
+from companion.config.schema import load_scenario
+from companion.sim.simulation import make_navigator
+from companion.sim.truth import TruthWorld
 
 
 def copter_among(obstacles: tuple, seed: int):

@@ -1,4 +1,4 @@
-"""A plain, dense, textbook EKF-SLAM: the correctness oracle for companion.core.ekf_slam.
+"""A plain, dense, textbook EKF-SLAM: the correctness oracle for companion.core.estimation.ekf_slam.
 
 Deliberately naive: full Jacobians F and H over the whole state, K = P H^T S^-1, and the Joseph
 update (I - K H) P (I - K H)^T + K R K^T, all as dense products. Slow (O(n^3)) and obviously right.

@@ -4,10 +4,10 @@ import math
 
 import numpy as np
 
-from companion.config import load_scenario
-from companion.core.association import associate_frame
-from companion.core.ekf_slam import EkfSlam, Observation, SlamNoise
-from companion.simulation import make_navigator
+from companion.config.schema import load_scenario
+from companion.core.estimation.association import associate_frame
+from companion.core.estimation.ekf_slam import EkfSlam, Observation, SlamNoise
+from companion.sim.simulation import make_navigator
 from companion.core.geometry import observe
 from tests.core.test_lifecycle import navigator, see
 

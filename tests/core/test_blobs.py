@@ -4,9 +4,9 @@ import math
 import numpy as np
 import pytest
 
-from companion.config import Obstacle, World, StartPose, Goal, load_scenario
-from companion.core.blobs import BlobParams, blob_observations, group_bins, sector_centres_rad
-from companion.truth import TruthWorld
+from companion.config.schema import Obstacle, World, StartPose, Goal, load_scenario
+from companion.core.perception.blobs import BlobParams, blob_observations, group_bins, sector_centres_rad
+from companion.sim.truth import TruthWorld
 
 FOV = math.radians(90.0)
 PARAMS = BlobParams(range_sigma_m=0.0, bearing_sigma_rad=0.0)

@@ -10,12 +10,12 @@ import math
 import numpy as np
 import pytest
 
-from companion.core.arc import Motion, VehicleLimits
-from companion.core.commitment import Commitment
-from companion.core.guidance import GuidanceParams, limit_turn
-from companion.core.seen_space import SeenSpace
-from companion.core.union import UnionParams, guide_union, turn_speed_factor
-from companion.core.velocity_choice import _seen_margin
+from companion.core.avoidance.arc import Motion, VehicleLimits
+from companion.core.avoidance.commitment import Commitment
+from companion.core.avoidance.guidance import GuidanceParams, limit_turn
+from companion.core.avoidance.seen_space import SeenSpace
+from companion.core.avoidance.union import UnionParams, guide_union, turn_speed_factor
+from companion.core.avoidance.velocity_choice import _seen_margin
 
 D = 10.0
 LIMITS = VehicleLimits(math.radians(30.0), 2.5)
@@ -170,7 +170,7 @@ def test_a_mover_seen_for_half_a_second_is_flown_around_where_it_goes():
     away from it), is still on probation as a landmark; the guidance flies around it as a mover
     at its apparent velocity, not as a post where it was seen. A static post seen as long is
     not moved."""
-    from companion.core.ekf_slam import AssociationGates, Observation, SlamNoise
+    from companion.core.estimation.ekf_slam import AssociationGates, Observation, SlamNoise
     from companion.core.geometry import observe
     from companion.core.navigator import Navigator
     noise = SlamNoise(0.3, math.radians(0.02), 0.1, 0.1, math.radians(0.01))

@@ -3,7 +3,7 @@ import math
 import numpy as np
 import pytest
 
-from companion.core.cone import check_cone, in_cone_by_angle, signed_angle
+from companion.core.avoidance.cone import check_cone, in_cone_by_angle, signed_angle
 
 
 def random_cases(n, seed=1):

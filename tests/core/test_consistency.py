@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 from scipy.stats import chi2
 
-from companion.core.consistency import (ConsistencyMonitor, MonitorParams, chi2_quantile,
+from companion.core.estimation.consistency import (ConsistencyMonitor, MonitorParams, chi2_quantile,
                                         radius_2sigma_m)
-from companion.core.ekf_slam import AssociationGates, EkfSlam, Observation
+from companion.core.estimation.ekf_slam import AssociationGates, EkfSlam, Observation
 from companion.core.geometry import observe
 from companion.core.navigator import EstimatorOptions, Navigator
 from tests.core.test_ekf_slam import NOISE

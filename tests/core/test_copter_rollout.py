@@ -7,11 +7,11 @@ import math
 import numpy as np
 import pytest
 
-from companion.config import load_scenario
-from companion.core.arc import VehicleLimits, clearance, fly_out
-from companion.core.guidance import GuidanceCommand, shape_setpoint
-from companion.core.union import turn_speed_factor
-from companion.truth import TruthWorld
+from companion.config.schema import load_scenario
+from companion.core.avoidance.arc import VehicleLimits, clearance, fly_out
+from companion.core.avoidance.guidance import GuidanceCommand, shape_setpoint
+from companion.core.avoidance.union import turn_speed_factor
+from companion.sim.truth import TruthWorld
 
 FOV = math.radians(90.0)
 HORIZON_S = 4.0

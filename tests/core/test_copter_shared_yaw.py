@@ -5,9 +5,9 @@ import math
 import numpy as np
 import pytest
 
-from companion.config import Obstacle
+from companion.config.schema import Obstacle
 from companion.core.geometry import wrap_angle
-from companion.core.motion_evidence import shared_yaw_velocity_cov
+from companion.core.estimation.motion_evidence import shared_yaw_velocity_cov
 from tests.core.copter_flight import copter_among, fly_north
 
 TRUE_VELOCITY = np.array([-1.5, 4.45])

@@ -3,7 +3,7 @@ import math
 import numpy as np
 import pytest
 
-from companion.core.ekf_slam import AssociationGates, EkfSlam, Observation, SlamNoise
+from companion.core.estimation.ekf_slam import AssociationGates, EkfSlam, Observation, SlamNoise
 from companion.core.geometry import observe
 from tests.core.dense_reference import DenseEkfSlam
 
@@ -73,9 +73,9 @@ def test_predict_touches_only_vehicle_rows_and_columns():
 
 
 def test_covariance_stays_symmetric_psd_through_a_simulated_run():
-    from companion.config import load_scenario
-    from companion.simulation import make_navigator
-    from companion.truth import TruthWorld
+    from companion.config.schema import load_scenario
+    from companion.sim.simulation import make_navigator
+    from companion.sim.truth import TruthWorld
     scenario = load_scenario("config/scenarios/paper.yaml")
     truth = TruthWorld(scenario, np.random.default_rng(11))
     nav = make_navigator(scenario)

@@ -1,12 +1,12 @@
-"""The flank scan (core/flank_scan.py): a fixed 90 degree camera looks beyond its edges."""
+"""The flank scan (core/avoidance/flank_scan.py): a fixed 90 degree camera looks beyond its edges."""
 import dataclasses
 import math
 
 import numpy as np
 
-from companion.config import Goal, Obstacle, StartPose, load_scenario
-from companion.core.flank_scan import FlankScan, FlankScanParams
-from companion.simulation import run_once
+from companion.config.schema import Goal, Obstacle, StartPose, load_scenario
+from companion.core.avoidance.flank_scan import FlankScan, FlankScanParams
+from companion.sim.simulation import run_once
 
 
 def _crossing_behind(flank_scan_deg):

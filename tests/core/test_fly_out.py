@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from companion.core.arc import STEP_S, Motion, clearance, fly_out
+from companion.core.avoidance.arc import STEP_S, Motion, clearance, fly_out
 from companion.core.geometry import wrap_angles
 
 
@@ -74,7 +74,7 @@ def test_clearance_matches_the_gaps_written_out():
 
 
 def test_first_passing_gives_the_all_at_once_answer():
-    from companion.core.velocity_choice import _first_passing
+    from companion.core.avoidance.velocity_choice import _first_passing
     rng = np.random.default_rng(11)
     for _ in range(300):
         k = int(rng.integers(1, 120))

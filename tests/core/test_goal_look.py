@@ -1,4 +1,4 @@
-"""The multicopter's look toward the goal (core/look_at.py goal_look_yaw, avoidance.goal_look_deg):
+"""The multicopter's look toward the goal (core/avoidance/look_at.py goal_look_yaw, avoidance.goal_look_deg):
 while the velocity swerves, the nose turns back toward the goal's direction; only the yaw."""
 import dataclasses
 import math
@@ -6,14 +6,14 @@ import math
 import numpy as np
 import pytest
 
-from companion import simulation
-from companion.config import Goal, Obstacle, StartPose, load_config, load_scenario
+from companion.sim import simulation
+from companion.config.schema import Goal, Obstacle, StartPose, load_config, load_scenario
 from companion.core.geometry import wrap_angle
-from companion.core.look_at import GoalLookParams, goal_look_yaw
+from companion.core.avoidance.look_at import GoalLookParams, goal_look_yaw
 from companion.core.navigator import Navigator
 from companion.errors import ConfigError
-from companion.pipeline import Pipeline
-from companion.simulation import run_once
+from companion.onboard.pipeline import Pipeline
+from companion.sim.simulation import run_once
 
 COPTER = "config/scenarios/copter.yaml"
 COPTER_TEXT = open(COPTER).read()
@@ -172,7 +172,7 @@ def _service_flight(goal_look_deg):
     """The pipeline flying north at 5 m/s (tests/service's feed, which does not follow the
     setpoints) toward a post seen 2 m left of the way: the setpoints it sends."""
     from tests.service.test_pipeline import GOAL, Feed, config, hb, setpoints
-    from companion.core.ekf_slam import Observation
+    from companion.core.estimation.ekf_slam import Observation
     base = config(require_camera=False)
     cfg = dataclasses.replace(base, avoidance=dataclasses.replace(
         base.avoidance, goal_look_deg=goal_look_deg))

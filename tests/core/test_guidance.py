@@ -3,8 +3,8 @@ import math
 import numpy as np
 import pytest
 
-from companion.core.cone import check_cone, signed_angle
-from companion.core.guidance import (GuidanceParams, assess, escape_heading, guide_apf, guide_cone,
+from companion.core.avoidance.cone import check_cone, signed_angle
+from companion.core.avoidance.guidance import (GuidanceParams, assess, escape_heading, guide_apf, guide_cone,
                                      inflated_radius, is_urgent, limit_turn, most_urgent)
 
 PARAMS = GuidanceParams(cruise_speed_mps=5.0, safety_distance_m=10.0, horizon_s=4.0, eta=1.25,

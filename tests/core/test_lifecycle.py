@@ -5,11 +5,11 @@ import math
 import numpy as np
 import pytest
 
-from companion.config import load_scenario
-from companion.core.ekf_slam import Observation
+from companion.config.schema import load_scenario
+from companion.core.estimation.ekf_slam import Observation
 from companion.core.geometry import observe
-from companion.core.lifecycle import Lifecycle, LifecycleParams, expected_visible
-from companion.simulation import make_navigator
+from companion.core.estimation.lifecycle import Lifecycle, LifecycleParams, expected_visible
+from companion.sim.simulation import make_navigator
 
 VIEW = LifecycleParams(fov_rad=math.radians(90.0), max_range_m=40.0)
 

@@ -1,17 +1,17 @@
-"""A young landmark's points are a mover's track only when they line up (core/motion_evidence.py),
+"""A young landmark's points are a mover's track only when they line up (core/estimation/motion_evidence.py),
 and a false alarm born beside a post does not turn the post into a mover (the seed-21 problem)."""
 import math
 
 import numpy as np
 
-from companion.core.consistency import chi2_quantile
-from companion.core.ekf_slam import Observation
+from companion.core.estimation.consistency import chi2_quantile
+from companion.core.estimation.ekf_slam import Observation
 from companion.core.geometry import observe
-from companion.core.motion_evidence import is_straight_track, straight_track_nis
+from companion.core.estimation.motion_evidence import is_straight_track, straight_track_nis
 import dataclasses
 
-from companion.config import load_scenario
-from companion.simulation import make_navigator
+from companion.config.schema import load_scenario
+from companion.sim.simulation import make_navigator
 
 SIGMA = 0.1
 

@@ -7,13 +7,13 @@ import numpy as np
 import pytest
 
 from companion.core import navigator as navigator_module
-from companion.core.arc import VehicleLimits
-from companion.core.ekf_slam import AssociationGates, Observation, SlamNoise
+from companion.core.avoidance.arc import VehicleLimits
+from companion.core.estimation.ekf_slam import AssociationGates, Observation, SlamNoise
 from companion.core.geometry import observe
-from companion.core.guidance import GuidanceParams
-from companion.core.movers import MoverParams, MoverTracker, mover_spread
+from companion.core.avoidance.guidance import GuidanceParams
+from companion.core.estimation.movers import MoverParams, MoverTracker, mover_spread
 from companion.core.navigator import SPREAD_MIN_UPDATES, Navigator
-from companion.core.union import UnionParams
+from companion.core.avoidance.union import UnionParams
 
 LIMITS = VehicleLimits(math.radians(30.0), 2.5)
 NOISE = SlamNoise(0.3, math.radians(0.02), 0.1, 0.1, math.radians(0.01))

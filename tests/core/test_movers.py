@@ -4,13 +4,13 @@ import math
 import numpy as np
 import pytest
 
-from companion.config import Obstacle, load_scenario
-from companion.core.ekf_slam import EkfSlam, Observation
+from companion.config.schema import Obstacle, load_scenario
+from companion.core.estimation.ekf_slam import EkfSlam, Observation
 from companion.core.geometry import observe
-from companion.core.guidance import GuidanceParams
-from companion.core.movers import MoverParams, MoverTracker, apparent_velocity
-from companion.core.union import UnionParams, blocking, guide_union
-from companion.simulation import make_navigator, run_once
+from companion.core.avoidance.guidance import GuidanceParams
+from companion.core.estimation.movers import MoverParams, MoverTracker, apparent_velocity
+from companion.core.avoidance.union import UnionParams, blocking, guide_union
+from companion.sim.simulation import make_navigator, run_once
 from tests.core.test_ekf_slam import NOISE
 
 
@@ -90,7 +90,7 @@ def test_mover_is_tracked_not_mapped_and_flight_stays_safe():
 
 def fly_north(scenario, steps: int = 250):
     """Fly straight north at 5 m/s for ``steps`` steps of 0.1 s, camera at 5 Hz."""
-    from companion.truth import TruthWorld
+    from companion.sim.truth import TruthWorld
     truth = TruthWorld(scenario, np.random.default_rng(1))
     nav = make_navigator(scenario)
     for step in range(1, steps):
@@ -154,7 +154,7 @@ def test_static_worlds_only_differ_by_the_probation_of_new_landmarks(monkeypatch
     centimetres, the median final error within 0.2 m."""
     scenario = load_scenario("config/scenarios/paper.yaml")
     with_probation = [run_once(scenario, seed).summary for seed in range(6)]
-    import companion.simulation as simulation
+    import companion.sim.simulation as simulation
     original = simulation.Navigator
 
     def without(*args, **kwargs):
@@ -177,7 +177,7 @@ def paper_crab_probation(course_known: bool, crab_deg: float = 12.0):
     est = dataclasses.replace(base.estimator_config(), motion_model="paper", position_fusion="off")
     noise = dataclasses.replace(base.noise, yaw_sigma_deg=0.01)      # a clean yaw, as the stub's
     scenario = dataclasses.replace(base, estimator=est, noise=noise)
-    from companion.truth import TruthWorld
+    from companion.sim.truth import TruthWorld
     truth = TruthWorld(scenario, np.random.default_rng(5))
     crab = math.radians(crab_deg)
     velocity = 5.0 * np.array([math.cos(crab), math.sin(crab)])
@@ -199,7 +199,7 @@ def test_mover_test_allows_for_the_course_heading_difference():
 
 
 def test_mover_thresholds_are_config_keys(tmp_path):
-    from companion.config import load_config
+    from companion.config.schema import load_config
     from companion.errors import ConfigError
     text = open("config/companion.yaml").read().replace(
         "  slow_factor: 0.5\n", "  slow_factor: 0.5\n  mover_speed_threshold_mps: 0.4\n"

@@ -6,12 +6,12 @@ import numpy as np
 import pytest
 from scipy.stats import chi2
 
-from companion.config import StartPose, load_scenario
-from companion.core.ekf_slam import AssociationGates, EkfSlam, Observation, VelocityNoise
+from companion.config.schema import StartPose, load_scenario
+from companion.core.estimation.ekf_slam import AssociationGates, EkfSlam, Observation, VelocityNoise
 from companion.core.geometry import move_velocity, move_velocity_jacobians
 from companion.core.navigator import EstimatorOptions, Navigator
-from companion.simulation import make_navigator, pose_nees
-from companion.truth import TruthWorld
+from companion.sim.simulation import make_navigator, pose_nees
+from companion.sim.truth import TruthWorld
 from tests.core.test_ekf_slam import NOISE
 from tests.core.test_geometry import POSES, numeric_jacobian
 from tests.core.test_navigator_timing import PARAMS

@@ -5,9 +5,9 @@ import math
 import numpy as np
 import pytest
 
-from companion.core.ekf_slam import AssociationGates, Observation, SlamNoise
+from companion.core.estimation.ekf_slam import AssociationGates, Observation, SlamNoise
 from companion.core.geometry import observe
-from companion.core.guidance import GuidanceParams
+from companion.core.avoidance.guidance import GuidanceParams
 from companion.core.navigator import Navigator
 
 NOISE = SlamNoise(0.3, math.radians(0.02), 0.1, 0.1, math.radians(0.01))

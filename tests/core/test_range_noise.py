@@ -6,12 +6,12 @@ import math
 import numpy as np
 import pytest
 
-from companion.config import Obstacle, load_config, load_scenario
-from companion.core.ekf_slam import Observation
-from companion.core.range_noise import stereo_k_per_m, stereo_range_sigma_m, with_range_model
+from companion.config.schema import Obstacle, load_config, load_scenario
+from companion.core.estimation.ekf_slam import Observation
+from companion.core.estimation.range_noise import stereo_k_per_m, stereo_range_sigma_m, with_range_model
 from companion.errors import ConfigError
-from companion.simulation import make_navigator
-from companion.truth import TruthWorld
+from companion.sim.simulation import make_navigator
+from companion.sim.truth import TruthWorld
 from sitl_stub import camera
 from sitl_stub.world import ScenarioError
 from sitl_stub.world import load_scenario as stub_load_scenario

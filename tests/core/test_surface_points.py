@@ -6,11 +6,11 @@ import math
 import numpy as np
 import pytest
 
-from companion.config import Goal, Obstacle, Point, StartPose, Wall, World, load_scenario
-from companion.core.blobs import BlobParams, SurfacePoint, blob_observations
-from companion.core.surface_cover import covering_nis
-from companion.simulation import camera_frame, make_navigator
-from companion.truth import TruthWorld
+from companion.config.schema import Goal, Obstacle, Point, StartPose, Wall, World, load_scenario
+from companion.core.perception.blobs import BlobParams, SurfacePoint, blob_observations
+from companion.core.perception.surface_cover import covering_nis
+from companion.sim.simulation import camera_frame, make_navigator
+from companion.sim.truth import TruthWorld
 from tests.core.test_blobs import PARAMS, scan
 from tests.core.test_lifecycle import navigator
 
@@ -97,7 +97,7 @@ INCREMENT = math.radians(90.0) / 72
 
 def surface_point(nav, north, east, stretch_m):
     """A chain point of the world point (north, east) from the estimated pose, with the R
-    core/blobs.py gives it: the spacing's spread for a point between anchors, none for an end."""
+    core/perception/blobs.py gives it: the spacing's spread for a point between anchors, none for an end."""
     from companion.core.geometry import observe
     r, b = observe(nav.slam.pose, np.array([north, east]))
     bin_var = PARAMS.correlation_inflation * INCREMENT ** 2 / 12.0

@@ -9,11 +9,11 @@ import math
 
 import numpy as np
 
-from companion.config import load_scenario
-from companion.core.ekf_slam import Observation
+from companion.config.schema import load_scenario
+from companion.core.estimation.ekf_slam import Observation
 from companion.core.geometry import observe
-from companion.core.movers import MoverTracker, start_evidence
-from companion.simulation import make_navigator
+from companion.core.estimation.movers import MoverTracker, start_evidence
+from companion.sim.simulation import make_navigator
 
 DT = 0.2
 SPEED = 5.0

@@ -3,8 +3,8 @@ import math
 import numpy as np
 import pytest
 
-from companion.core.guidance import GuidanceParams, guide_cone
-from companion.core.union import UnionParams, blocking, guide_union, turn_speed_factor
+from companion.core.avoidance.guidance import GuidanceParams, guide_cone
+from companion.core.avoidance.union import UnionParams, blocking, guide_union, turn_speed_factor
 
 PARAMS = GuidanceParams(cruise_speed_mps=5.0, safety_distance_m=10.0, horizon_s=4.0, eta=1.25,
                         goal_radius_m=2.0)
@@ -82,7 +82,7 @@ def test_mapped_obstacle_behind_does_not_block_and_far_ones_wait():
 def test_plain_python_and_numpy_paths_choose_alike():
     """Static obstacles take a plain-Python path for speed; the numpy path (used with movers)
     must make the same choice on the same inputs."""
-    from companion.core.union import _choose_general, _choose_static
+    from companion.core.avoidance.union import _choose_general, _choose_static
     rng = np.random.default_rng(8)
     compared = avoided = 0
     for _ in range(400):

@@ -4,11 +4,11 @@ import math
 import numpy as np
 import pytest
 
-from companion.core.arc import Motion, clearance, fly_out
+from companion.core.avoidance.arc import Motion, clearance, fly_out
 from companion.core.geometry import wrap_angles
-from companion.core.guidance import GuidanceParams
-from companion.core.union import UnionParams, guide_union, sensed_speed_limit
-from companion.core.velocity_choice import gate_headings
+from companion.core.avoidance.guidance import GuidanceParams
+from companion.core.avoidance.union import UnionParams, guide_union, sensed_speed_limit
+from companion.core.avoidance.velocity_choice import gate_headings
 
 D = 10.0
 RATE = math.radians(30.0)

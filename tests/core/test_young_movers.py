@@ -9,13 +9,13 @@ import math
 import numpy as np
 import pytest
 
-from companion.core.arc import VehicleLimits
-from companion.core.ekf_slam import AssociationGates, Observation, SlamNoise
+from companion.core.avoidance.arc import VehicleLimits
+from companion.core.estimation.ekf_slam import AssociationGates, Observation, SlamNoise
 from companion.core.geometry import move, observe, wrap_angle
-from companion.core.guidance import GuidanceParams, limit_turn
-from companion.core.movers import MoverParams
+from companion.core.avoidance.guidance import GuidanceParams, limit_turn
+from companion.core.estimation.movers import MoverParams
 from companion.core.navigator import Navigator
-from companion.core.union import UnionParams
+from companion.core.avoidance.union import UnionParams
 
 TURN_RATE = math.radians(30.0)
 LIMITS = VehicleLimits(TURN_RATE, 2.5)
@@ -94,7 +94,7 @@ def test_two_sightings_of_a_static_post_do_not_make_it_a_mover():
 
 
 def test_young_min_sightings_is_checked():
-    from companion.config import EstimatorConfig
+    from companion.config.schema import EstimatorConfig
     with pytest.raises(ValueError):
         EstimatorConfig(range_sigma_m=0.1, bearing_sigma_deg=0.01, mover_young_min_sightings=1)
     config = EstimatorConfig(range_sigma_m=0.1, bearing_sigma_deg=0.01, mover_young_min_sightings=3)

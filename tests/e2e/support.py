@@ -19,8 +19,8 @@ import yaml
 os.environ["MAVLINK20"] = "1"
 from pymavlink import mavutil  # noqa: E402
 
-from companion.adapters.tlog import TlogReader  # noqa: E402
-from companion.config import config_to_dict, load_config  # noqa: E402
+from companion.mavlink.tlog import TlogReader  # noqa: E402
+from companion.config.schema import config_to_dict, load_config  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[2]
 PAPER = REPO / "config" / "scenarios" / "paper.yaml"

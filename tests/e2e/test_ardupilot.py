@@ -20,7 +20,7 @@ from pathlib import Path
 
 import pytest
 
-from companion.adapters.tlog import TlogReader
+from companion.mavlink.tlog import TlogReader
 from tests.e2e.support import PAPER, REPO
 
 SITL = os.environ.get("ARDUCOPTER_SITL")

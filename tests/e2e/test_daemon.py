@@ -8,7 +8,7 @@ import pytest
 import yaml
 from pymavlink import mavutil
 
-from companion.adapters.tlog import TlogReader
+from companion.mavlink.tlog import TlogReader
 from tests.e2e.support import (LOITER, PAPER, GroundStation, UdpRelay, companion_setpoints,
                                read_tlog, start_companion, start_stub, wait_until, write_config)
 

@@ -11,7 +11,7 @@ import time
 import psutil
 import pytest
 
-from companion.demo import DemoError, spawn
+from companion.tools.demo import DemoError, spawn
 from tests.e2e.support import REPO, wait_until
 
 
@@ -107,7 +107,7 @@ def test_the_death_signal_hook_ties_a_child_to_its_parent(tmp_path):
     gets SIGTERM; one started without it outlives the parent (so the check can fail)."""
     script = textwrap.dedent("""
         import subprocess, sys, time
-        from companion.child_lifetime import die_with_parent_hook
+        from companion.tools.child_lifetime import die_with_parent_hook
         hook = die_with_parent_hook() if sys.argv[1] == "hook" else None
         child = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"],
                                  preexec_fn=hook)

@@ -11,9 +11,9 @@ from types import SimpleNamespace
 import pytest
 
 from companion.__main__ import main
-from companion.adapters import codec
-from companion.adapters.codec import mavlink
-from companion.adapters.tlog import TlogReader, TlogWriter
+from companion.mavlink import codec
+from companion.mavlink.codec import mavlink
+from companion.mavlink.tlog import TlogReader, TlogWriter
 from tests.e2e.support import REPO
 
 

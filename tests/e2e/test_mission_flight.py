@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from companion.core.sector_map import scan_map
+from companion.core.perception.sector_map import scan_map
 from tests.e2e.support import (GroundStation, read_tlog, start_companion, start_stub, wait_until,
                                write_config)
 from tests.stub.support import read_truth_log

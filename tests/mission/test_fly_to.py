@@ -6,11 +6,11 @@ import math
 
 import pytest
 
-from companion.adapters import codec
-from companion.adapters.mission_codec import GoalRequest
-from companion.config import FlyToConfig
-from companion.fly_to import judge
-from companion.goal import LOCATION_SCALING_FACTOR_M
+from companion.mavlink import codec
+from companion.mavlink.mission_codec import GoalRequest
+from companion.config.schema import FlyToConfig
+from companion.onboard.fly_to import judge
+from companion.onboard.goal import LOCATION_SCALING_FACTOR_M
 
 ORIGIN = codec.GeoReference(1, 1, "origin", -35.363261, 149.165230, 0.0, 0.0)
 LIMITS = FlyToConfig(max_distance_from_origin_m=1000.0, max_distance_from_vehicle_m=500.0)

@@ -2,8 +2,8 @@
 REQUEST_LIST -> COUNT -> REQUEST_INT n -> ITEM_INT n ... -> ACK; 1.5 s timeouts, 5 retries."""
 from __future__ import annotations
 
-from companion.adapters import mission_codec as mc
-from companion.mission import MissionDownload, build_plan
+from companion.mavlink import mission_codec as mc
+from companion.onboard.mission import MissionDownload, build_plan
 
 VEHICLE = (1, 1)
 OWN = 191

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import pytest
 
-from companion.adapters import codec
-from companion.adapters import mission_codec as mc
-from companion.goal import LOCATION_SCALING_FACTOR_M
-from companion.mission_follow import MissionFollower
+from companion.mavlink import codec
+from companion.mavlink import mission_codec as mc
+from companion.onboard.goal import LOCATION_SCALING_FACTOR_M
+from companion.onboard.mission_follow import MissionFollower
 
 VEHICLE = (1, 1)
 

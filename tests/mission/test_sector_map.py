@@ -11,10 +11,10 @@ import pytest
 os.environ.setdefault("MAVLINK20", "1")
 from pymavlink.dialects.v20 import ardupilotmega as mavlink  # noqa: E402
 
-from companion.adapters import codec  # noqa: E402
-from companion.config import MapOutputConfig  # noqa: E402
-from companion.core.sector_map import scan_map  # noqa: E402
-from companion.map_output import MapPublisher  # noqa: E402
+from companion.mavlink import codec  # noqa: E402
+from companion.config.schema import MapOutputConfig  # noqa: E402
+from companion.core.perception.sector_map import scan_map  # noqa: E402
+from companion.onboard.map_output import MapPublisher  # noqa: E402
 
 
 def test_a_disc_ahead_fills_the_sectors_its_outline_subtends():

@@ -6,7 +6,7 @@ from collections import Counter
 
 import pytest
 
-from companion.adapters import codec
+from companion.mavlink import codec
 from tests.e2e.support import (GroundStation, companion_setpoints, read_tlog,
                                start_companion, start_stub, wait_until, write_config)
 from tests.robustness.support import Recording, fresh_pipeline

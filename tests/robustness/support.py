@@ -9,9 +9,9 @@ from pathlib import Path
 
 import numpy as np
 
-from companion.adapters import codec
-from companion.config import load_config
-from companion.pipeline import Pipeline
+from companion.mavlink import codec
+from companion.config.schema import load_config
+from companion.onboard.pipeline import Pipeline
 
 
 @dataclass(frozen=True)

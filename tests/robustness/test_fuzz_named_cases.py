@@ -18,9 +18,9 @@ import time
 
 import pytest
 
-from companion.adapters import codec
-from companion.adapters.codec import mavlink
-from companion.adapters.mavlink_link import open_link
+from companion.mavlink import codec
+from companion.mavlink.codec import mavlink
+from companion.mavlink.link import open_link
 from tests.robustness.support import check_estimate, check_outputs, clone, fresh_pipeline, rejections
 
 KEY = bytes(range(7, 39))

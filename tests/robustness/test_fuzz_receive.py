@@ -19,8 +19,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from companion.adapters import codec
-from companion.adapters.tlog import TlogReader, TlogWriter
+from companion.mavlink import codec
+from companion.mavlink.tlog import TlogReader, TlogWriter
 from tests.robustness.support import (check_estimate, check_outputs, clone, fresh_pipeline,
                                       rejections)
 

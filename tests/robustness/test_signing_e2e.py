@@ -10,9 +10,9 @@ import time
 
 import pytest
 
-from companion.adapters import codec
-from companion.adapters.mavlink_link import open_link
-from companion.adapters.tlog import TlogReader
+from companion.mavlink import codec
+from companion.mavlink.link import open_link
+from companion.mavlink.tlog import TlogReader
 from tests.e2e.support import REPO, start_stub
 
 KEY = bytes.fromhex("5a" * 16 + "c3" * 16)

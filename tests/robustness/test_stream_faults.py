@@ -8,10 +8,10 @@ import math
 import numpy as np
 import pytest
 
-from companion.adapters import codec
-from companion.adapters.codec import mavlink
-from companion.core.ekf_slam import Observation
-from companion.pipeline import StreamsWanted, snapshot
+from companion.mavlink import codec
+from companion.mavlink.codec import mavlink
+from companion.core.estimation.ekf_slam import Observation
+from companion.onboard.pipeline import StreamsWanted, snapshot
 from tests.robustness.support import (check_estimate, check_outputs, clone, fresh_pipeline,
                                       rejections)
 from tests.robustness.test_fuzz_receive import Repacker

@@ -3,7 +3,7 @@ import math
 
 import pytest
 
-from companion.safety.clock import ClockLimits, EpochCamera, VehicleClock
+from companion.onboard.safety.clock import ClockLimits, EpochCamera, VehicleClock
 
 
 def running(t_s=100.0, **limits):

@@ -4,8 +4,8 @@ from dataclasses import dataclass, replace
 
 import pytest
 
-from companion.adapters import codec
-from companion.safety.gate import SetpointGate, SetpointLimits
+from companion.mavlink import codec
+from companion.onboard.safety.gate import SetpointGate, SetpointLimits
 
 LIMITS = SetpointLimits(max_speed_mps=8.0, max_vertical_speed_mps=2.5,
                         max_yaw_rate_rad_s=math.radians(90.0), max_position_m=1000.0)

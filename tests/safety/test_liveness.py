@@ -1,5 +1,5 @@
 """Liveness: camera from its obstacle messages (vehicle time), vehicle from its heartbeat (link)."""
-from companion.safety.liveness import Liveness
+from companion.onboard.safety.liveness import Liveness
 
 
 def test_camera_stale_after_the_timeout_of_vehicle_time_and_live_on_an_empty_frame():

@@ -1,6 +1,6 @@
 """STATUSTEXT limiter and stream-rate watch (pure: time is an argument)."""
-from companion.safety.notices import NoticeLimiter
-from companion.stream_rates import StreamRateWatch
+from companion.onboard.safety.notices import NoticeLimiter
+from companion.onboard.stream_rates import StreamRateWatch
 
 
 def test_the_same_text_at_most_once_per_repeat_interval():
@@ -69,10 +69,10 @@ class _FakeLink:
 def test_in_lockstep_the_notice_limit_runs_on_vehicle_time():
     import asyncio
 
-    from companion.adapters import codec
-    from companion.config import load_config
-    from companion.lockstep import VehicleLinkClock
-    from companion.service import Service
+    from companion.mavlink import codec
+    from companion.config.schema import load_config
+    from companion.daemon.lockstep import VehicleLinkClock
+    from companion.daemon.service import Service
 
     async def body():
         config = load_config("config/companion.yaml")

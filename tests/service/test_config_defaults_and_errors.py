@@ -7,8 +7,8 @@ import sys
 
 import pytest
 
-from companion.config import AvoidanceConfig, load_config, load_scenario
-from companion.config_loader import parse_yaml
+from companion.config.schema import AvoidanceConfig, load_config, load_scenario
+from companion.config.loader import parse_yaml
 from companion.errors import ConfigError
 
 SHIPPED = "config/companion.yaml"

@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 
 from companion.__main__ import build_parser
-from companion.commands.run import parse_goal
+from companion.cli.run import parse_goal
 
 DOC = Path(__file__).resolve().parents[2] / "docs" / "real-vehicle.md"
 

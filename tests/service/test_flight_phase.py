@@ -4,12 +4,12 @@ import math
 
 import pytest
 
-from companion.adapters import codec
-from companion.config import GoalConfig
-from companion.flight_phase import (AIRBORNE, LANDED, LANDING, TAKING_OFF, FlightPhase,
+from companion.mavlink import codec
+from companion.config.schema import GoalConfig
+from companion.onboard.flight_phase import (AIRBORNE, LANDED, LANDING, TAKING_OFF, FlightPhase,
                                     FlightPhaseParams, VerticalHold)
-from companion.goal import LOCATION_SCALING_FACTOR_M, goal_north_east
-from companion.pipeline import Pipeline
+from companion.onboard.goal import LOCATION_SCALING_FACTOR_M, goal_north_east
+from companion.onboard.pipeline import Pipeline
 
 from .test_pipeline import GOAL, Feed, config, hb, setpoints, started
 
@@ -158,7 +158,7 @@ def test_a_lat_lon_goal_waits_for_the_ekf_origin_then_guides():
 def test_goal_config_forms_and_mistakes():
     assert GoalConfig(1.0, 2.0).is_geographic is False
     assert GoalConfig(lat_deg=1.0, lon_deg=2.0, radius_m=3.0).is_geographic
-    from companion.config_loader import FieldError
+    from companion.config.loader import FieldError
     with pytest.raises(FieldError, match="not both"):
         GoalConfig(north_m=1.0, east_m=2.0, lat_deg=1.0, lon_deg=2.0)
     with pytest.raises(FieldError, match="lon_deg: missing"):
@@ -175,7 +175,7 @@ def test_goal_config_forms_and_mistakes():
     ("GEO:-35.3616,149.1652,4", GoalConfig(lat_deg=-35.3616, lon_deg=149.1652, radius_m=4.0)),
 ])
 def test_goal_command_line_forms(text, expected):
-    from companion.commands.run import parse_goal
+    from companion.cli.run import parse_goal
     assert parse_goal(text) == expected
 
 
@@ -187,7 +187,7 @@ def test_goal_command_line_forms(text, expected):
     ("1,2,0", "--goal: radius_m: expected a value > 0"),
 ])
 def test_goal_command_line_mistakes_are_clear(text, message):
-    from companion.commands.run import parse_goal
+    from companion.cli.run import parse_goal
     from companion.errors import ConfigError
     with pytest.raises(ConfigError) as err:
         parse_goal(text)
@@ -195,7 +195,7 @@ def test_goal_command_line_mistakes_are_clear(text, message):
 
 
 def test_goal_config_file_forms(tmp_path):
-    from companion.config import load_config
+    from companion.config.schema import load_config
     from companion.errors import ConfigError
     base = open("config/companion.yaml").read()
     good = tmp_path / "geo.yaml"

@@ -1,10 +1,10 @@
-"""companion/lockstep.py: in lock-step the link clock is the vehicle's clock."""
+"""companion/daemon/lockstep.py: in lock-step the link clock is the vehicle's clock."""
 from __future__ import annotations
 
-from companion.adapters import codec
-from companion.config import load_config
-from companion.lockstep import VehicleLinkClock, lockstep_config
-from companion.paths import resolve_config
+from companion.mavlink import codec
+from companion.config.schema import load_config
+from companion.daemon.lockstep import VehicleLinkClock, lockstep_config
+from companion.config.paths import resolve_config
 
 BASE_S = 1_700_000_000.0
 

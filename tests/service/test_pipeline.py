@@ -6,11 +6,11 @@ import math
 import numpy as np
 import pytest
 
-from companion.adapters import codec
-from companion.config import GoalConfig, load_config
-from companion.core.ekf_slam import Observation
-from companion.core.guidance import GuidanceCommand
-from companion.pipeline import Arrived, NavigatorStarted, Pipeline, StreamsWanted, snapshot
+from companion.mavlink import codec
+from companion.config.schema import GoalConfig, load_config
+from companion.core.estimation.ekf_slam import Observation
+from companion.core.avoidance.guidance import GuidanceCommand
+from companion.onboard.pipeline import Arrived, NavigatorStarted, Pipeline, StreamsWanted, snapshot
 
 GUIDED, LOITER = 4, 5
 GOAL = GoalConfig(180.0, 0.0, 2.0)
@@ -178,7 +178,7 @@ def test_diverged_estimator_holds_and_logs_error(caplog):
     for _ in range(3):
         feed.step()
     feed.p.navigator.slam._cov_buf[0, 0] = math.nan          # simulate a divergence
-    with caplog.at_level(logging.ERROR, logger="companion.pipeline"):
+    with caplog.at_level(logging.ERROR, logger="companion.onboard.pipeline"):
         out = feed.step()
     (sp,) = setpoints(out)
     assert (sp.vel_north_mps, sp.vel_east_mps) == (0.0, 0.0) and sp.reason.startswith("hold")
@@ -191,7 +191,7 @@ def test_stale_camera_holds_then_resumes(caplog):
     feed.camera_alive = False
     feed.step()
     assert setpoints(feed.outputs)[-1].vel_north_mps > 0     # the empty frame counted
-    with caplog.at_level(logging.ERROR, logger="companion.pipeline"):
+    with caplog.at_level(logging.ERROR, logger="companion.onboard.pipeline"):
         for _ in range(15):
             feed.step()
     assert setpoints(feed.outputs)[-1].reason == "hold: obstacle data stale"

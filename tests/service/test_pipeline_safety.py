@@ -6,10 +6,10 @@ import math
 
 import pytest
 
-from companion.adapters import codec
-from companion.core.ekf_slam import Observation
-from companion.pipeline import Pipeline, StreamsWanted
-from companion.safety.gate import SetpointGate, SetpointLimits
+from companion.mavlink import codec
+from companion.core.estimation.ekf_slam import Observation
+from companion.onboard.pipeline import Pipeline, StreamsWanted
+from companion.onboard.safety.gate import SetpointGate, SetpointLimits
 from tests.service.test_pipeline import GOAL, Feed, config, hb, setpoints, started
 
 

@@ -8,15 +8,15 @@ import math
 import numpy as np
 import pytest
 
-from companion.adapters import codec
-from companion.config import load_config
-from companion.core.arc import VehicleLimits
-from companion.core.ekf_slam import Observation
+from companion.mavlink import codec
+from companion.config.schema import load_config
+from companion.core.avoidance.arc import VehicleLimits
+from companion.core.estimation.ekf_slam import Observation
 from companion.core.geometry import wrap_angle
-from companion.core.guidance import GuidanceCommand, ShapedSetpoint, shape_setpoint
-from companion.core.look_at import LookAtParams, threat_to_watch
+from companion.core.avoidance.guidance import GuidanceCommand, ShapedSetpoint, shape_setpoint
+from companion.core.avoidance.look_at import LookAtParams, threat_to_watch
 from companion.errors import ConfigError
-from companion.pipeline import Pipeline
+from companion.onboard.pipeline import Pipeline
 from tests.service.test_pipeline import GOAL, Feed, config, hb, setpoints
 
 SHIPPED = "config/companion.yaml"

@@ -7,10 +7,10 @@ import math
 import numpy as np
 import pytest
 
-from companion.config import Point, Wall, load_scenario
-from companion.core.blobs import BlobParams, blob_observations
-from companion.core.union import blocking
-from companion.truth import TruthWorld
+from companion.config.schema import Point, Wall, load_scenario
+from companion.core.perception.blobs import BlobParams, blob_observations
+from companion.core.avoidance.union import blocking
+from companion.sim.truth import TruthWorld
 from sitl_stub import camera as stub_camera
 from sitl_stub import shapes as stub_shapes
 from sitl_stub.world import load_scenario as stub_load_scenario

@@ -6,11 +6,11 @@ import math
 import numpy as np
 import pytest
 
-from companion.config import load_config, load_scenario
+from companion.config.schema import load_config, load_scenario
 from companion.core import shapes
-from companion.plot import offset_outline, plot_run
-from companion.simulation import run_once
-from companion.worlds import random_world
+from companion.sim.plot import offset_outline, plot_run
+from companion.sim.simulation import run_once
+from companion.sim.worlds import random_world
 
 
 def test_simulate_flies_past_the_wall_and_the_building_clear_of_their_surfaces(tmp_path):
@@ -50,7 +50,7 @@ def test_urban_worlds_hold_walls_buildings_and_posts_with_room_between_shapes():
 
 def test_urban_worlds_need_a_depth_camera():
     from companion.errors import ConfigError
-    from companion.config_loader import FieldError
+    from companion.config.loader import FieldError
     with pytest.raises((FieldError, ConfigError), match="centres cannot see walls"):
         random_world(load_scenario("config/scenarios/paper.yaml"), "urban", 0)
 

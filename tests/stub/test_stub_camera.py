@@ -93,7 +93,7 @@ def test_sector_form_marks_the_obstacle_sectors():
 def test_sector_bearing_is_the_bin_centre_as_the_companion_decodes_it():
     """A thin post 9.375 deg right of the nose, the centre of sector 43: decoded at 9.375 deg
     (ArduPilot reads element j at angle_offset + j * increment: angle_offset is element 0's centre)."""
-    from companion.adapters.codec import sector_bearings_rad   # the test may import both sides
+    from companion.mavlink.codec import sector_bearings_rad   # the test may import both sides
     cfg = dataclasses.replace(CFG, range_sigma_m=0.0, bearing_sigma_rad=0.0)
     post = (1, 30.0 * math.cos(math.radians(9.375)), 30.0 * math.sin(math.radians(9.375)), 0.3)
     dets = camera.observe(0.0, 0.0, 0.0, [post], cfg, np.random.default_rng(0))

@@ -11,12 +11,12 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from companion.config import load_config
-from companion.core.guidance import GuidanceParams
-from companion.core.union import UnionParams
+from companion.config.schema import load_config
+from companion.core.avoidance.guidance import GuidanceParams
+from companion.core.avoidance.union import UnionParams
 from companion.errors import ConfigError
-from companion.paths import resolve_config
-from companion.pipeline import Pipeline
+from companion.config.paths import resolve_config
+from companion.onboard.pipeline import Pipeline
 from companion.view import feed
 
 

@@ -1,0 +1,1 @@
+"""The commands' argparse and printing: one module per ``companion`` command."""

@@ -1,0 +1,114 @@
+"""``companion demo``: fly a scenario with the stub, the companion daemon and a ground station."""
+from __future__ import annotations
+
+import argparse
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from companion.cli.autopilot_demo import add_autopilot_arguments, run_autopilot
+from companion.cli.run import run_task_tree
+from companion.config.schema import load_scenario
+from companion.errors import CompanionError
+from companion.config.paths import resolve_config
+from companion.tools.report import print_summary, write_json
+
+DEFAULT_SCENARIO = "config/scenarios/paper.yaml"
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser(
+        "demo", help="fly a scenario end to end over MAVLink: sitl-stub + companion run + a GCS",
+        description="Starts sitl-stub and `companion run` as processes on loopback, sets GUIDED "
+                    "and arms as a ground station would, waits for the companion to report "
+                    "arrival, and scores the flight like `companion simulate`.")
+    p.add_argument("--scenario", default=DEFAULT_SCENARIO,
+                   help=f"scenario YAML (default {DEFAULT_SCENARIO})")
+    p.add_argument("--lockstep", action=argparse.BooleanOptionalAction, default=True,
+                   help="stub and companion in lock-step: the same flight whatever the machine's "
+                        "load, as fast as the two processes go (default); --no-lockstep: the "
+                        "stub runs on the wall clock at --speedup")
+    p.add_argument("--lockstep-overlap", action="store_true",
+                   help="lock-step with the stub one step ahead: both processes compute at once "
+                        "(faster on two free cores), the companion's setpoints take effect one "
+                        "control period later; still the same flight whatever the load")
+    p.add_argument("--speedup", type=float, default=20.0,
+                   help="simulated seconds per wall second without lock-step, and of the "
+                        "stub's free-run fallback in lock-step (default 20)")
+    p.add_argument("--seed", type=int, default=0, help="the stub's noise seed (default 0)")
+    p.add_argument("--drop-rate", type=float, default=0.0,
+                   help="fraction of datagrams (UDP, companion <-> stub) and TCP messages (ground "
+                        "station <-> stub) the stub drops, both directions, seeded by --seed "
+                        "(default 0)")
+    p.add_argument("--signing-key", metavar="FILE",
+                   help="MAVLink 2 signing for everyone: FILE holds the key as 64 hex chars")
+    p.add_argument("--json", metavar="PATH", help="write {aggregate, runs} as JSON")
+    p.add_argument("--plot", metavar="PATH", help="draw the flight as a PNG (paper's Figure 4)")
+    p.add_argument("--tlog", metavar="PATH", help="the companion records its traffic here")
+    p.add_argument("--keep", metavar="DIR", help="keep the work files (truth log, report, "
+                   "children's stderr) in DIR instead of a temporary directory")
+    p.add_argument("--view-feed", metavar="HOST:PORT",
+                   help="the companion sends its live state to `companion view` there; with "
+                        "--keep DIR the view can draw the truth too (DIR/truth.jsonl)")
+    add_autopilot_arguments(p)
+    p.set_defaults(handler=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from companion.tools.demo import DemoFiles, demo_result, flight_timing, run_demo, score
+    if args.speedup <= 0:
+        raise CompanionError(f"--speedup: expected a positive number, got {args.speedup}")
+    if not 0.0 <= args.drop_rate < 1.0:
+        raise CompanionError(f"--drop-rate: expected a fraction in [0, 1), got {args.drop_rate}")
+    scenario_path = resolve_config(args.scenario)
+    scenario = load_scenario(scenario_path)
+    if args.view_feed:
+        from companion.view.feed import parse_address
+        parse_address(args.view_feed, "--view-feed")
+    if args.lockstep_overlap and (not args.lockstep or args.autopilot):
+        raise CompanionError("--lockstep-overlap is the stub's, in lock-step: not with "
+                             "--no-lockstep or --autopilot")
+    if args.autopilot:
+        return run_autopilot(args, scenario_path, scenario)
+    tlog = Path(args.tlog).resolve() if args.tlog else None
+    started = time.monotonic()
+    with tempfile.TemporaryDirectory(prefix="companion-demo-") as tmp:
+        workdir = Path(args.keep or tmp)
+        workdir.mkdir(parents=True, exist_ok=True)
+        files = DemoFiles(workdir, tlog)
+        report, _, truth, samples = run_task_tree(run_demo(
+                scenario_path, scenario, files, args.speedup, args.seed, args.drop_rate,
+                Path(args.signing_key).resolve() if args.signing_key else None, args.lockstep,
+                args.view_feed, args.lockstep_overlap))
+        summary, arrays = score(report, truth, scenario, args.seed)
+    wall_s = time.monotonic() - started
+    result = demo_result(summary, arrays.pop("nees"), scenario)
+    result["aggregate"]["wall_time_s"] = round(wall_s, 2)
+    result["aggregate"]["speedup"] = args.speedup
+    result["aggregate"]["lockstep"] = args.lockstep
+    if args.lockstep_overlap:
+        result["aggregate"]["lockstep_overlap"] = True
+    t_arrival = report.get("arrival_t_s")
+    result["aggregate"].update(flight_timing(
+        samples, t_arrival - summary["time_s"] if t_arrival is not None else 0.0, t_arrival))
+    if args.json:
+        write_json(args.json, result)
+    if args.plot:
+        import numpy as np
+
+        from companion.sim.plot import plot_paths
+        goal = scenario.world.goal
+        plot_paths(args.plot, **arrays, safety_distance_m=scenario.avoidance.safety_distance_m,
+                   goal_ne=np.array([goal.north_m, goal.east_m]),
+                   title=f"{scenario.name}: companion demo over MAVLink, seed {args.seed}",
+                   start_ne=np.array([scenario.world.start.north_m, scenario.world.start.east_m]))
+    print_summary(result, sys.stdout)
+    rtf = result["aggregate"]["real_time_factor"]
+    pace = "lock-step" if args.lockstep else f"speedup {args.speedup:g}"
+    print(f"time to goal {summary['time_s']:.1f} s simulated, {wall_s:.1f} s wall in all "
+          f"({pace}; the flight at {rtf if rtf is not None else '?'}x real time); "
+          f"urgent events {summary['urgent_events']}")
+    if args.tlog:
+        print(f"tlog: {args.tlog}")
+    return 0 if summary["reached_goal"] else 1

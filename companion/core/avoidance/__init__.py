@@ -1,0 +1,1 @@
+"""Guidance on the estimate: collision cones, their union, the velocity choice, where to look."""

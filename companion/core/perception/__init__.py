@@ -1,0 +1,1 @@
+"""What a depth camera sees as landmark observations, and the map back as proximity sectors."""

@@ -1,0 +1,1 @@
+"""The asyncio shell of ``companion run``: link, tlog, timers and the pipeline in one task tree."""

@@ -1,0 +1,385 @@
+"""``companion run`` wiring: link, tlog, pipeline and timers in one asyncio task tree.
+
+No maths here. The :class:`~companion.onboard.pipeline.Pipeline` decides everything from the inbound
+stream; this module only adds what a live daemon needs on top: sockets (the link), wall-clock
+timers (our heartbeat, the vehicle-heartbeat watchdog, stream requests, tlog flushing) and
+sending. Tasks, one job each:
+
+  receive    the link's transport (TCP reconnects)
+  estimate   inbox -> tlog -> codec -> pipeline -> send
+  heartbeat  our HEARTBEAT at link.heartbeat_rate_hz
+  watchdog   logs vehicle-heartbeat loss; asks for streams again when odometry stays away or
+             arrives slower than asked (bounded); reports suppressed STATUSTEXTs
+  streams    SET_MESSAGE_INTERVAL (acked, retried), else REQUEST_DATA_STREAM
+  tlog       flush twice a second
+  stop       SIGINT/SIGTERM -> one stop setpoint if commanding -> ShutdownRequested
+
+With ``lockstep`` (``companion run --lockstep``, against ``sitl-stub --lockstep``) the stamps given
+to the pipeline and the tlog, and our heartbeat schedule, come from the vehicle's clock
+(companion/daemon/lockstep.py); the watchdog's log lines stay on the wall clock.
+"""
+from __future__ import annotations
+
+import asyncio
+import json
+import logging
+import math
+import os
+import signal
+from dataclasses import asdict
+from pathlib import Path
+
+import yaml
+
+from companion.mavlink import codec, mission_codec
+from companion.mavlink.link import MavlinkLink, open_link
+from companion.mavlink.tlog import TlogWriter
+from companion.config.schema import CompanionConfig, config_to_dict, read_signing_key
+from companion.errors import ShutdownRequested
+from companion.daemon.lockstep import VehicleLinkClock, lockstep_config
+from companion.onboard.pipeline import Arrived, NavigatorStarted, Pipeline, StreamsWanted, snapshot
+from companion.tools.report import _clean
+from companion.onboard.safety.notices import NoticeLimiter
+from companion.onboard.stream_rates import StreamRateWatch
+from companion.view import feed
+
+log = logging.getLogger(__name__)
+
+TLOG_FLUSH_INTERVAL_S = 0.5
+WATCHDOG_INTERVAL_S = 0.2
+# The report keeps the latest hour of track at 10 Hz (about 4 MB); the daemon flies for longer.
+REPORT_TRACK_ROWS = 36_000
+PLACEHOLDER_SYSTEM_ID = 1        # our system id until the vehicle's is known (if not configured)
+STREAMS = ((codec.MSG_ID_ATTITUDE, "attitude_rate_hz"),
+           (codec.MSG_ID_LOCAL_POSITION_NED, "local_position_rate_hz"),
+           (codec.MSG_ID_EXTENDED_SYS_STATE, "landed_state_rate_hz"),      # flight phases
+           (codec.MSG_ID_GLOBAL_POSITION_INT, "global_position_rate_hz"),
+           (codec.MSG_ID_GPS_RAW_INT, "gps_raw_rate_hz"),                # position fusion 'auto'
+           (codec.MSG_ID_EKF_STATUS_REPORT, "ekf_status_rate_hz"))
+ODOMETRY_STREAMS = (codec.MSG_ID_ATTITUDE, codec.MSG_ID_LOCAL_POSITION_NED)
+GEO_REFERENCE_RETRY_S = 2.0      # a lat/lon goal: ask for GPS_GLOBAL_ORIGIN and HOME this often
+
+
+def describe_goal(goal) -> str:
+    if goal.mission:
+        return f"the autopilot's mission (default acceptance radius {goal.radius_m:.1f} m)"
+    if goal.is_geographic:
+        return f"lat {goal.lat_deg:.7f}, lon {goal.lon_deg:.7f} (waits for the EKF origin)"
+    return f"north {goal.north_m:.1f} m, east {goal.east_m:.1f} m"
+
+
+def sidecar_config_path(tlog_path: str | Path) -> Path:
+    """Where the effective config of a recorded run is written: FILE.tlog -> FILE.config.yaml."""
+    return Path(tlog_path).with_suffix(".config.yaml")
+
+
+def write_json_atomic(path: str | Path, data: dict) -> None:
+    path = Path(path)
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(json.dumps(_clean(data)) + "\n")
+    os.replace(tmp, path)
+
+
+class Service:
+    """The live daemon around one Pipeline."""
+
+    def __init__(self, config: CompanionConfig, link: MavlinkLink, tlog: TlogWriter | None,
+                 report_path: str | Path | None, clock: VehicleLinkClock | None = None,
+                 keep_track: bool = False) -> None:
+        self.config = config
+        self.clock = clock
+        self.link = link
+        self.tlog = tlog
+        self.report_path = report_path
+        self.pipeline = Pipeline(config, config.goal,
+                                 record_track=report_path is not None or keep_track,
+                                 track_limit=REPORT_TRACK_ROWS)
+        self.streams_wanted = asyncio.Event()
+        self.acks: asyncio.Queue[codec.CommandAck] = asyncio.Queue(maxsize=16)
+        self.stop = asyncio.Event()
+        self._odometry_seen = asyncio.Event()
+        streams = config.streams
+        # The odometry streams' rates are watched (what the estimate and the setpoints run on);
+        # the slow ones (landed state, GPS health) are asked for with them.
+        self.rates = StreamRateWatch({msg_id: getattr(streams, key) for msg_id, key in STREAMS
+                                      if msg_id in ODOMETRY_STREAMS},
+                                     streams.rate_check_s, streams.min_rate_fraction,
+                                     streams.max_reasserts)
+        self.notices = NoticeLimiter(config.safety.statustext_repeat_s,
+                                     config.safety.statustext_per_s)
+        if tlog is not None:
+            link.on_sent = tlog.write if clock is None else \
+                (lambda _t_us, data: tlog.write(clock.now_us(), data))
+        link.on_connect = self.streams_wanted.set
+
+    # ------------------------------------------------------------ tasks
+    async def estimate(self) -> None:
+        link = self.link
+        # Stop taking messages once shutdown is asked: the stop setpoint follows the last message
+        # handled (and recorded), as replay reproduces it. (inbox.get() does not yield while the
+        # inbox holds messages, so the TaskGroup's cancellation alone could come late.)
+        while not self.stop.is_set():
+            received = await link.inbox.get()
+            if self.stop.is_set():
+                break
+            if self.clock is None:
+                await self._handle(received)
+                continue
+            # Lock-step: what the messages already received make us send, up to our ODOMETRY
+            # (the stub's sign to step), goes out together: one wake-up of the stub
+            # (companion/daemon/lockstep.py); the messages after it wait for the next answer.
+            with link.coalesced():
+                while not await self._handle(received) and not link.inbox.empty() \
+                        and not self.stop.is_set():
+                    received = link.inbox.get_nowait()
+
+    async def _handle(self, received) -> bool:
+        """One received message: stamp, record, through the pipeline, its outputs out. True if
+        they include our ODOMETRY."""
+        link, pipeline = self.link, self.pipeline
+        event = codec.decode(received.msg)
+        t_us = received.t_us if self.clock is None else self.clock.observe(event)
+        if self.tlog is not None:
+            self.tlog.write(t_us, bytes(received.msg.get_msgbuf()))
+        if self.clock is not None and self.clock.heartbeat_due():
+            link.send(codec.heartbeat())
+        if isinstance(event, codec.CommandAck) and pipeline.vehicle == (
+                event.system_id, event.component_id) and not self.acks.full():
+            self.acks.put_nowait(event)
+        elif isinstance(event, codec.LocalPosition):
+            self._odometry_seen.set()
+        if isinstance(event, (codec.Attitude, codec.LocalPosition)) and pipeline.vehicle == (
+                event.system_id, event.component_id):
+            self.rates.on_message(codec.MSG_ID_ATTITUDE if isinstance(event, codec.Attitude)
+                                  else codec.MSG_ID_LOCAL_POSITION_NED)
+        answered = False
+        for output in pipeline.handle(t_us / 1e6, event):
+            await self._dispatch(output)
+            answered = answered or isinstance(output, codec.PoseEstimate)
+        return answered
+
+    async def _dispatch(self, output) -> None:
+        link = self.link
+        if self.config.link.system_id is None and self.pipeline.vehicle is not None:
+            link.encoder.system_id = self.pipeline.vehicle[0]
+        if isinstance(output, codec.VelocitySetpoint):
+            link.send(codec.set_position_target(output))
+        elif isinstance(output, codec.PoseEstimate):
+            link.send(codec.odometry(output))
+        elif isinstance(output, codec.Notice):
+            self._send_notice(output)
+        elif isinstance(output, codec.MoverReport):
+            link.send(codec.mover_obstacle(output))
+        elif isinstance(output, codec.SectorMap):
+            link.send(codec.obstacle_distance_map(output))
+        elif isinstance(output, mission_codec.MissionRequest):
+            link.send(mission_codec.encode(output))
+        elif isinstance(output, StreamsWanted):
+            log.info("asking for telemetry streams: %s", output.reason)
+            self.streams_wanted.set()
+        elif isinstance(output, (NavigatorStarted, Arrived)) and self.report_path:
+            await asyncio.to_thread(write_json_atomic, self.report_path, self.report())
+
+    def _now_us(self) -> int:
+        """The service's time: the link's wall clock, or the vehicle's in lock-step (so what the
+        STATUSTEXT limiter lets through does not depend on how fast the machine runs the loop)."""
+        return self.link.now_us() if self.clock is None else self.clock.now_us()
+
+    def _send_notice(self, notice: codec.Notice) -> None:
+        if self.notices.admit(notice.text, self._now_us() / 1e6):
+            self.link.send(codec.statustext(notice))
+        else:
+            log.debug("STATUSTEXT suppressed: %s", notice.text)
+
+    def _check_rates(self) -> None:
+        text = self.notices.take_suppressed_report(self._now_us() / 1e6)
+        now_s = self.link.now_us() / 1e6
+        if text is not None:
+            log.warning("%s (STATUSTEXT limit)", text)
+            self.link.send(codec.statustext(codec.Notice(codec.SEVERITY_INFO, text)))
+        if self.pipeline.vehicle is None or not self._odometry_seen.is_set():
+            return                        # request_streams is still asking
+        again = self.rates.check(now_s)
+        if again:
+            log.warning("streams %s below %.0f%% of the asked rate: asking again",
+                        ", ".join(str(m) for m in again), 100 * self.config.streams.min_rate_fraction)
+            self.streams_wanted.set()
+
+    async def send_heartbeats(self) -> None:
+        period_s = 1.0 / self.config.link.heartbeat_rate_hz
+        while True:
+            if self.clock is None or not self.clock.started:   # lock-step: see estimate()
+                self.link.send(codec.heartbeat())
+            await asyncio.sleep(period_s)
+
+    async def watch(self) -> None:
+        """Wall-clock watchdog: says when the vehicle goes silent (the pipeline already refuses
+        to command on a stale heartbeat) and asks for streams again when odometry stays away."""
+        timeout_s = self.config.link.heartbeat_timeout_s
+        silent = False
+        loop = asyncio.get_running_loop()
+        seen, seen_wall_s = None, 0.0
+        while True:
+            await asyncio.sleep(WATCHDOG_INTERVAL_S)
+            self._check_rates()
+            now_us = self._now_us()
+            for output in self.pipeline.mission_tick(now_us / 1e6):
+                await self._dispatch(output)
+            last = self.pipeline.heartbeat_link_s
+            if last is None:
+                continue
+            if last != seen:
+                seen, seen_wall_s = last, loop.time()
+            # lock-step: the link clock stops with the link, so the silence is timed on the wall
+            age_s = self.link.now_us() / 1e6 - last if self.clock is None \
+                else loop.time() - seen_wall_s
+            if age_s > timeout_s and not silent:
+                silent = True
+                log.warning("no vehicle heartbeat for %.1f s: commanding stopped", age_s)
+            elif age_s <= timeout_s and silent:
+                silent = False
+                log.info("vehicle heartbeat back")
+
+    async def request_streams(self) -> None:
+        streams = self.config.streams
+        while True:
+            await self.streams_wanted.wait()
+            self.streams_wanted.clear()
+            if self.pipeline.vehicle is None:
+                continue                      # 'vehicle found' will ask again
+            self._odometry_seen.clear()
+            for msg_id, rate_key in STREAMS:
+                await self._request_stream(msg_id, getattr(streams, rate_key))
+            self.rates.restart(self.link.now_us() / 1e6)
+            try:
+                async with asyncio.timeout(streams.rerequest_after_s):
+                    await self._odometry_seen.wait()
+            except TimeoutError:
+                log.warning("no odometry %.1f s after asking: asking again",
+                            streams.rerequest_after_s)
+                self.streams_wanted.set()
+
+    async def _request_stream(self, msg_id: int, rate_hz: float) -> None:
+        streams = self.config.streams
+        sysid, compid = self.pipeline.vehicle
+        while not self.acks.empty():
+            self.acks.get_nowait()
+        for _ in range(streams.attempts):
+            self.link.send(codec.set_message_interval(sysid, compid, msg_id, rate_hz))
+            ack = await self._wait_for_ack(streams.ack_timeout_s)
+            if ack is not None and ack.accepted:
+                log.info("message %d at %.1f Hz: accepted", msg_id, rate_hz)
+                return
+            if ack is not None:
+                log.warning("SET_MESSAGE_INTERVAL %d refused (result %d)", msg_id, ack.result)
+                break
+        if msg_id not in codec.DATA_STREAMS_FOR:
+            log.warning("message %d: not granted and in no data stream; going without it", msg_id)
+            return
+        log.warning("message %d: falling back to REQUEST_DATA_STREAM", msg_id)
+        self.link.send(codec.request_data_stream(sysid, compid, msg_id, rate_hz))
+
+    async def _wait_for_ack(self, timeout_s: float) -> codec.CommandAck | None:
+        try:
+            async with asyncio.timeout(timeout_s):
+                while True:
+                    ack = await self.acks.get()
+                    if codec.is_set_message_interval_ack(ack):
+                        return ack
+        except TimeoutError:
+            return None
+
+    async def ask_geo_reference(self) -> None:
+        """A latitude/longitude goal needs the EKF origin (or HOME): ask until it is known.
+        ArduCopter sets its origin once the EKF has a position (30-40 s after boot in SITL)."""
+        while True:
+            if self.pipeline.vehicle is not None and self.pipeline.needs_geo_reference:
+                sysid, compid = self.pipeline.vehicle
+                for msg_id in (codec.MSG_ID_GPS_GLOBAL_ORIGIN, codec.MSG_ID_HOME_POSITION):
+                    self.link.send(codec.request_message(sysid, compid, msg_id))
+                await asyncio.sleep(GEO_REFERENCE_RETRY_S)
+            else:        # ask as soon as the vehicle is found (a lock-step flight is quick)
+                await asyncio.sleep(WATCHDOG_INTERVAL_S)
+
+    async def flush_tlog(self) -> None:
+        while True:
+            await asyncio.sleep(TLOG_FLUSH_INTERVAL_S)
+            self.tlog.flush()
+
+    async def raise_on_stop(self) -> None:
+        await self.stop.wait()
+        # The vehicle would coast on its last velocity until GUID_TIMEOUT: tell it to stop.
+        now_us = self._now_us()
+        for setpoint in self.pipeline.stop_setpoint(now_us / 1e6):
+            self.link.send(codec.set_position_target(setpoint))
+            log.info("shutdown: stop setpoint sent (velocity 0, yaw %.1f deg)",
+                     math.degrees(setpoint.yaw_rad))
+        raise ShutdownRequested()
+
+    # ------------------------------------------------------------ results
+    def report(self) -> dict:
+        data = snapshot(self.pipeline)
+        data["link"] = asdict(self.link.statistics())
+        data["statustext_suppressed"] = self.notices.suppressed
+        data["stream_reasserts"] = self.rates.reasserts
+        data["setpoints_refused"] = dict(self.pipeline.gate.refused)
+        data["config"] = config_to_dict(self.config)
+        return data
+
+
+async def run_service(config: CompanionConfig, url: str, tlog_path: str | Path | None = None,
+                      report_path: str | Path | None = None, lockstep: bool = False,
+                      view_feed: tuple[str, int] | None = None) -> None:
+    """Run the daemon until SIGINT/SIGTERM. ``config.goal`` must be set. ``view_feed``:
+    (host, port) to send the live view's state to (companion/view/feed.py)."""
+    loop = asyncio.get_running_loop()
+    clock = None
+    if lockstep:
+        config = lockstep_config(config)
+        clock = VehicleLinkClock(1.0 / config.link.heartbeat_rate_hz)
+    # The key stays in this frame, the encoder and the parser: never in the config, a log line,
+    # the tlog's sidecar or the report (they name the key file only).
+    signing_key = read_signing_key(config.link)
+    tlog = None
+    if tlog_path is not None:
+        tlog = TlogWriter(tlog_path)
+        sidecar_config_path(tlog_path).write_text(yaml.safe_dump(config_to_dict(config)))
+    encoder = codec.Encoder(config.link.system_id or PLACEHOLDER_SYSTEM_ID,
+                            config.link.component_id, signing_key)
+    service = None
+    try:
+        async with open_link(url, encoder, config.link.inbox_size,
+                             config.link.reconnect_interval_s, signing_key) as link:
+            service = Service(config, link, tlog, report_path, clock, view_feed is not None)
+            for sig in (signal.SIGINT, signal.SIGTERM):
+                loop.add_signal_handler(sig, service.stop.set)
+            log.info("companion up on %s%s: goal %s", url,
+                     f" (local {link.local_address[0]}:{link.local_address[1]})"
+                     if link.local_address else "", describe_goal(config.goal))
+            log.info("effective config: %s", config_to_dict(config))
+            if signing_key is not None:
+                log.info("MAVLink 2 signing on (key from %s): unsigned traffic refused",
+                         config.link.signing_key_file)
+            try:
+                async with asyncio.TaskGroup() as tg:
+                    tg.create_task(link.run(), name="receive")
+                    tg.create_task(service.estimate(), name="estimate")
+                    tg.create_task(service.send_heartbeats(), name="heartbeat")
+                    tg.create_task(service.watch(), name="watchdog")
+                    tg.create_task(service.request_streams(), name="streams")
+                    if config.goal.is_geographic or config.goal.mission or config.fly_to.enabled:
+                        tg.create_task(service.ask_geo_reference(), name="geo-reference")
+                    if tlog is not None:
+                        tg.create_task(service.flush_tlog(), name="tlog")
+                    if view_feed is not None:
+                        tg.create_task(feed.publish(service.pipeline, view_feed), name="view-feed")
+                    tg.create_task(service.raise_on_stop(), name="stop")
+            except* ShutdownRequested:
+                log.info("clean shutdown: %s", link.statistics())
+    finally:
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            loop.remove_signal_handler(sig)
+        if tlog is not None:
+            tlog.close()
+        if service is not None and report_path is not None:
+            write_json_atomic(report_path, service.report())

@@ -1,0 +1,1 @@
+"""MAVLink on the wire: the codecs (events and intents), the asyncio link with signing, tlogs."""

@@ -1,0 +1,173 @@
+"""Following the autopilot's mission: when to download it, which waypoint is the goal, when to
+download it again. Pure: returns what to send (mission requests, notices); time passed in.
+
+- The download starts when the vehicle is found, and again when MISSION_CURRENT says the mission
+  changed: ArduCopter 4.6 streams MISSION_CURRENT with ``total`` (items without home; 0 with no
+  mission) and ``mission_state``; ``mission_id`` where the autopilot fills it. A change of
+  ``total`` or a non-zero ``mission_id`` is a new mission (an upload of the same length with
+  ``mission_id`` 0 is not seen: ArduCopter does not say). MISSION_ITEM_REACHED comes from
+  ArduCopter only in AUTO, as its own mission progresses: logged, not used (the companion flies
+  in GUIDED).
+- Waypoints are flown in order. A global one becomes metres with the EKF origin
+  (companion/onboard/goal.py), and waits for it. Reaching one (the navigator's arrival, while commanding)
+  is announced; after the last one the vehicle holds there ("mission complete").
+"""
+from __future__ import annotations
+
+import logging
+from dataclasses import asdict
+
+from companion.mavlink import codec
+from companion.mavlink import mission_codec as mc
+from companion.onboard.goal import goal_north_east
+from companion.onboard.mission import DownloadParams, MissionDownload, MissionPlan, Waypoint, build_plan
+
+log = logging.getLogger(__name__)
+RETRY_FAILED_AFTER_S = 5.0          # a failed download is tried again this much later
+
+
+class MissionFollower:
+    def __init__(self, own_component: int, default_radius_m: float,
+                 params: DownloadParams = DownloadParams()) -> None:
+        self.own_component = own_component
+        self.default_radius_m = default_radius_m
+        self.params = params
+        self.vehicle: tuple[int, int] | None = None
+        self.download: MissionDownload | None = None
+        self.plan: MissionPlan | None = None
+        self.index = 0                              # the waypoint flown to
+        self.reached: list[int] = []                # seq of each waypoint reached, in order
+        self.downloads = 0
+        self._signature: tuple[int, int] | None = None
+        self._failed_t_s: float | None = None
+        self._reference: codec.GeoReference | None = None
+
+    # ------------------------------------------------------------ downloads
+    def on_vehicle(self, t_s: float, vehicle: tuple[int, int]) -> list:
+        self.vehicle = vehicle
+        return self._start(t_s, "vehicle found")
+
+    def _start(self, t_s: float, why: str) -> list:
+        if self.vehicle is None:
+            return []
+        log.info("mission: downloading (%s)", why)
+        self.download = MissionDownload(self.vehicle, self.own_component, self.params)
+        self._failed_t_s = None
+        return self.download.start(t_s)
+
+    def on_event(self, t_s: float, event) -> list:
+        out: list = []
+        if isinstance(event, mc.MissionCurrent):
+            return self._on_current(t_s, event)
+        if isinstance(event, mc.MissionItemReached):
+            log.info("autopilot reports mission item %d reached (its own mission)", event.seq)
+            return out
+        if self.download is None:
+            return out
+        out.extend(self.download.on_event(t_s, event))
+        self._after_download_step(t_s, out)
+        return out
+
+    def tick(self, t_s: float) -> list:
+        out: list = []
+        if self.download is not None:
+            out.extend(self.download.tick(t_s))
+            self._after_download_step(t_s, out)
+        if self._failed_t_s is not None and t_s - self._failed_t_s >= RETRY_FAILED_AFTER_S:
+            out.extend(self._start(t_s, "after a failed download"))
+        return out
+
+    def _on_current(self, t_s: float, current: mc.MissionCurrent) -> list:
+        signature = (current.total, current.mission_id)
+        previous, self._signature = self._signature, signature
+        if previous is None or previous == signature:
+            return []
+        log.info("mission changed on the autopilot (total %d -> %d, id %d -> %d)",
+                 previous[0], signature[0], previous[1], signature[1])
+        return [codec.Notice(codec.SEVERITY_INFO, "companion: mission changed, re-reading"),
+                *self._start(t_s, "mission changed")]
+
+    def _after_download_step(self, t_s: float, out: list) -> None:
+        dl = self.download
+        if dl.state == "failed":
+            log.warning("mission download failed: %s (%d resends)", dl.failure, dl.resends)
+            out.append(codec.Notice(codec.SEVERITY_WARNING,
+                                    f"companion: mission download failed: {dl.failure}"))
+            self.download, self._failed_t_s = None, t_s
+        elif dl.state == "done":
+            self.download = None
+            self.downloads += 1
+            self._adopt(build_plan(dl.items, self.default_radius_m), out)
+
+    def _adopt(self, plan: MissionPlan, out: list) -> None:
+        if self.plan is not None and plan.waypoints == self.plan.waypoints:
+            return                      # the same waypoints: keep the progress
+        self.plan, self.index, self.reached = plan, 0, []
+        for reason in plan.skipped:
+            log.warning("mission item %s", reason)
+            out.append(codec.Notice(codec.SEVERITY_WARNING, f"companion: skip {reason}"))
+        log.info("mission: %d waypoints (%d items skipped)", len(plan.waypoints),
+                 len(plan.skipped))
+        out.append(codec.Notice(codec.SEVERITY_INFO,
+                                f"companion: mission of {len(plan.waypoints)} waypoints"))
+
+    # ------------------------------------------------------------ the goal
+    @property
+    def needs_geo_reference(self) -> bool:
+        return (self.plan is not None and any(w.is_geographic for w in self.plan.waypoints)
+                and (self._reference is None or self._reference.kind != "origin"))
+
+    def on_geo_reference(self, ref: codec.GeoReference) -> None:
+        if self._reference is None or ref.kind == "origin":
+            self._reference = ref
+
+    @property
+    def current(self) -> Waypoint | None:
+        if self.plan is None or self.index >= len(self.plan.waypoints):
+            return None
+        return self.plan.waypoints[self.index]
+
+    @property
+    def complete(self) -> bool:
+        return self.plan is not None and bool(self.plan.waypoints) \
+            and self.index >= len(self.plan.waypoints)
+
+    def goal(self) -> tuple[float, float, float] | None:
+        """(north_m, east_m, radius_m) to fly to now, or None (no mission, no reference yet).
+        After the last waypoint: the last one (hold there)."""
+        if self.plan is None or not self.plan.waypoints:
+            return None
+        wp = self.plan.waypoints[min(self.index, len(self.plan.waypoints) - 1)]
+        if not wp.is_geographic:
+            return wp.north_m, wp.east_m, wp.radius_m
+        ref = self._reference
+        if ref is None:
+            return None
+        try:
+            north, east = goal_north_east(wp.lat_deg, wp.lon_deg, ref.lat_deg, ref.lon_deg,
+                                          ref.north_m, ref.east_m)
+        except ValueError as exc:
+            log.error("mission waypoint %d: %s", wp.seq, exc)
+            return None
+        return north, east, wp.radius_m
+
+    def on_arrived(self, t_s: float) -> list:
+        """The navigator arrived at the current waypoint: announce it, go on to the next."""
+        wp = self.current
+        if wp is None:
+            return []
+        self.reached.append(wp.seq)
+        self.index += 1
+        log.info("waypoint %d reached at %.1f s", wp.seq, t_s)
+        out = [codec.Notice(codec.SEVERITY_NOTICE, f"companion: waypoint {wp.seq} reached")]
+        if self.complete:
+            out.append(codec.Notice(codec.SEVERITY_NOTICE, "companion: mission complete"))
+        return out
+
+    def summary(self) -> dict:
+        """For the report: the plan, what was skipped, which waypoints were reached."""
+        plan = self.plan
+        return {"downloads": self.downloads,
+                "waypoints": [asdict(w) for w in plan.waypoints] if plan else [],
+                "skipped": list(plan.skipped) if plan else [],
+                "reached": list(self.reached), "complete": self.complete}

@@ -1,0 +1,341 @@
+"""``companion simulate``: the closed loop in-process, without MAVLink.
+
+A truth world with its own random source, an estimator that sees only noisy odometry and noisy
+observations, and guidance acting on the estimate. One run per seed; aggregates over runs.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from filterpy.stats import NEES
+from scipy.stats import chi2
+
+from companion.config.schema import Scenario
+from companion.core.perception.blobs import BlobParams, blob_observations
+from companion.core.estimation.consistency import STATES, radius_2sigma_m
+from companion.core.avoidance.arc import VehicleLimits
+from companion.core.geometry import wrap_angle
+from companion.core.avoidance.guidance import limit_turn, shape_setpoint
+from companion.core.avoidance.look_at import LookAtParams
+from companion.core.navigator import Navigator
+from companion.sim.truth import TruthWorld
+
+# A run reaches the goal when the vehicle declares arrival (estimate within goal.radius_m) and the
+# true position is then within goal.radius_m plus this allowance for the estimate's own error
+# (the paper's "error less than 2 m").
+ARRIVAL_ALLOWANCE_M = 2.0
+
+
+@dataclass
+class Trace:
+    """Per-step arrays of one run, for plots and NEES."""
+    t_s: list = field(default_factory=list)
+    true_pose: list = field(default_factory=list)
+    est_pose: list = field(default_factory=list)
+    pose_nees: list = field(default_factory=list)
+
+
+@dataclass
+class RunOutcome:
+    summary: dict
+    trace: Trace
+    landmarks: np.ndarray
+    landmark_covs: np.ndarray
+    obstacles: np.ndarray
+
+
+def make_navigator(scenario: Scenario, strategy: str | None = None) -> Navigator:
+    est = scenario.estimator_config()
+    if est.sensor_fov_deg is None and est.sensor_max_range_m is None:    # the camera's own view
+        est = dataclasses.replace(est, sensor_fov_deg=scenario.sensor.fov_deg,
+                                  sensor_max_range_m=scenario.sensor.max_range_m)
+    start = scenario.world.start
+    pose = np.array([start.north_m, start.east_m, wrap_angle(start.yaw_rad)])
+    pose_cov = np.diag([est.initial_position_sigma_m ** 2, est.initial_position_sigma_m ** 2,
+                        math.radians(est.initial_yaw_sigma_deg) ** 2])
+    goal = np.array([scenario.world.goal.north_m, scenario.world.goal.east_m])
+    return Navigator(pose, pose_cov, est.slam_noise(), est.gates(), scenario.guidance_params(),
+                     goal, strategy or scenario.avoidance.strategy,
+                     dataclasses.replace(scenario.avoidance.union_params(scenario.sensor.fov_rad),
+                                         sensor_range_m=scenario.sensor.max_range_m,
+                                         perception_delay_s=perception_delay_s(est, scenario)),
+                     mover_params=est.mover_params(), options=est.options(),
+                     limits=vehicle_limits(scenario), look_at=look_at_params(scenario),
+                     goal_look=scenario.goal_look_params())
+
+
+def look_at_params(scenario: Scenario) -> LookAtParams | None:
+    """avoidance.look_at_threats, for a multicopter only (a unicycle flies where it points)."""
+    avoidance = scenario.avoidance
+    if not avoidance.look_at_threats or scenario.vehicle.kind != "multicopter":
+        return None
+    return LookAtParams(avoidance.union_params(scenario.sensor.fov_rad).fov_rad,
+                        avoidance.lookahead_s, 2.0 * avoidance.safety_distance_m)
+
+
+def perception_delay_s(est, scenario: Scenario) -> float:
+    """How long a new obstacle may stay out of the guidance: while tentative (until confirmed,
+    at worst the confirmation window's frames), unless tentatives count (estimator config)."""
+    if est.tentative_in_guidance:
+        return 0.0
+    return est.confirm_window / scenario.sensor.rate_hz
+
+
+def vehicle_limits(scenario: Scenario) -> VehicleLimits:
+    """The truth vehicle's limits, for the guidance's velocity choice."""
+    vehicle = scenario.vehicle
+    return VehicleLimits(vehicle.max_turn_rate_rad_s, vehicle.max_accel_mps2,
+                         lateral_accel_limited=vehicle.kind == "multicopter")
+
+
+def pose_nees(true_pose: np.ndarray, est_pose: np.ndarray, cov: np.ndarray) -> float:
+    """Pose NEES, e^T P^-1 e with the yaw error wrapped (filterpy's NEES; offline only)."""
+    error = true_pose - est_pose
+    error[2] = wrap_angle(error[2])
+    return float(NEES(error[None, :], np.zeros((1, 3)), cov[None, :, :])[0])
+
+
+def with_position_fusion(scenario: Scenario, position_fusion: str | None) -> Scenario:
+    """The scenario with its estimator's position_fusion replaced (None: as it is)."""
+    if position_fusion is None:
+        return scenario
+    est = dataclasses.replace(scenario.estimator_config(), position_fusion=position_fusion)
+    return dataclasses.replace(scenario, estimator=est)
+
+
+def camera_frame(truth: TruthWorld, blobs: BlobParams) -> list:
+    """What the companion sees of one frame in the scenario's sensor form: centres, the landmarks
+    of the sectors' blobs (core/perception/blobs.py, the companion's side of a depth camera), or both."""
+    form = truth.scenario.sensor.form
+    frame = truth.observe() if form in ("centres", "both") else []
+    if form in ("sectors", "both"):
+        frame += blob_observations(*truth.observe_sectors(), blobs)
+    return frame
+
+
+def with_speed(scenario: Scenario, speed_mps: float | None) -> Scenario:
+    """The scenario with its vehicle's cruise speed replaced (None: as it is)."""
+    if speed_mps is None:
+        return scenario
+    vehicle = dataclasses.replace(scenario.vehicle, speed_mps=float(speed_mps))
+    return dataclasses.replace(scenario, vehicle=vehicle)
+
+
+def run_once(scenario: Scenario, seed: int, strategy: str | None = None) -> RunOutcome:
+    """Fly one seeded run of the scenario in-process."""
+    truth = TruthWorld(scenario, np.random.default_rng(seed))
+    nav = make_navigator(scenario, strategy)
+    est = scenario.estimator_config()
+    copter = scenario.vehicle.kind == "multicopter"
+    # The truth always reports a healthy fix: 'auto' fuses it.
+    fuse = est.position_fusion != "off"
+    fix_sigma_m = est.position_sigma_m or est.position_sigma_per_hdop_m
+    reported_yaw = float(nav.slam.mean[2])
+    health_s = {state: 0.0 for state in STATES}
+    uncertain_arrival_s: float | None = None
+    vehicle = scenario.vehicle
+    dt = vehicle.dt_s
+    obs_every = max(1, round(1.0 / (scenario.sensor.rate_hz * dt)))
+    max_steps = int(math.ceil(scenario.mission.max_time_s / dt))
+    trace = Trace()
+    min_clearance = min_surface = math.inf
+    collided = False
+    urgent_events = 0
+    path_m = 0.0
+    max_err = 0.0
+    arrived = False
+    if copter:                         # the autopilot's first report starts the filter's clock
+        first = truth.copter_odometry(0.0)
+        nav.on_velocity(0.0, first.vel_north_mps, first.vel_east_mps, first.yaw_rad,
+                        first.yaw_rate_rad_s)
+    shaped = None                      # the last setpoint (copter): velocity and nose
+    blobs = BlobParams(range_sigma_m=scenario.sensor.range_sigma_m,
+                       bearing_sigma_rad=scenario.sensor.bearing_sigma_rad,
+                       range_sigma_k_per_m=scenario.estimator_config().range_sigma_k_per_m)
+    nav.observe(camera_frame(truth, blobs))
+    for step in range(1, max_steps + 1):
+        command, change = nav.decide(truth.t_s)
+        if change is not None and change.landmark_index is not None:
+            urgent_events += 1
+        health_s[nav.health.state] += dt
+        if command.mode == "arrived":
+            arrived = True
+            break
+        if command.mode == "arrival_uncertain" and uncertain_arrival_s is None:
+            uncertain_arrival_s = truth.t_s
+        est_heading = nav.slam.mean[2]
+        gamma = limit_turn(est_heading, command.heading_rad, vehicle.max_turn_rate_rad_s, dt)
+        before = truth.pose[:2].copy()
+        if copter:
+            # As the service does (pipeline._setpoint): the turn-limited velocity direction and
+            # nose (the nose apart only when looking at a mover) in the autopilot's yaw frame.
+            shaped = shape_setpoint(est_heading, shaped, command, vehicle.max_turn_rate_rad_s,
+                                    dt, math.inf)
+            course = wrap_angle(shaped.course_rad + reported_yaw - est_heading)
+            nose = wrap_angle(shaped.yaw_rad + reported_yaw - est_heading)
+            odo = truth.step_copter(shaped.speed_mps * np.array([math.cos(course),
+                                                                 math.sin(course)]), nose)
+            nav.on_velocity(truth.t_s, odo.vel_north_mps, odo.vel_east_mps, odo.yaw_rad,
+                            odo.yaw_rate_rad_s)
+            reported_yaw = odo.yaw_rad
+            if fuse:
+                nav.correct_position(*odo.position_ne_m, fix_sigma_m)
+        else:
+            odo = truth.step(command.speed_mps, gamma)
+            nav.predict(odo.speed_mps, odo.heading_change_rad, dt)
+        path_m += float(np.hypot(*(truth.pose[:2] - before)))
+        if step % obs_every == 0:
+            nav.observe(camera_frame(truth, blobs))
+        clear = truth.clearance()
+        min_clearance = min(min_clearance, clear.clearance_m)
+        min_surface = min(min_surface, clear.surface_m)
+        collided = collided or clear.surface_m < 0.0
+        est = nav.slam.pose
+        max_err = max(max_err, float(np.hypot(*(est[:2] - truth.pose[:2]))))
+        trace.t_s.append(truth.t_s)
+        trace.true_pose.append(truth.pose.copy())
+        trace.est_pose.append(est)
+        trace.pose_nees.append(pose_nees(truth.pose, est, nav.slam.pose_cov))
+    goal = np.array([scenario.world.goal.north_m, scenario.world.goal.east_m])
+    final_goal_distance = float(np.hypot(*(truth.pose[:2] - goal)))
+    reached = arrived and final_goal_distance <= scenario.world.goal.radius_m + ARRIVAL_ALLOWANCE_M
+    est = nav.slam.pose
+    summary = {
+        "seed": seed,
+        "reached_goal": bool(reached),
+        "time_s": round(truth.t_s, 6),
+        "min_clearance_m": min_clearance if math.isfinite(min_clearance) else None,
+        "min_surface_clearance_m": min_surface if math.isfinite(min_surface) else None,
+        "collided": collided,
+        "final_goal_distance_m": final_goal_distance,
+        "final_position_error_m": float(np.hypot(*(est[:2] - truth.pose[:2]))),
+        "max_position_error_m": max_err,
+        "landmark_errors_m": landmark_errors(nav, truth),
+        "urgent_events": urgent_events,
+        "path_length_m": path_m,
+        "arrived": arrived,
+        "arrival_uncertain_t_s": uncertain_arrival_s,
+        "final_pose_2sigma_m": radius_2sigma_m(nav.slam.pose_cov),
+        "estimator_state_s": health_s,
+        "estimator_state_changes": [[round(h.t_s, 3), h.state, h.reason]
+                                    for h in nav.health_changes],
+        "position_fixes": dict(nav.position_fixes),
+        "landmarks": {"final": nav.slam.landmark_count,
+                      "final_confirmed": sum(nav.lifecycle.state(k) == "confirmed"
+                                             for k in nav.slam.landmark_ids()),
+                      "obstacles_seen": len(truth.seen_ids),
+                      **nav.lifecycle.counts},
+    }
+    return RunOutcome(summary, trace, nav.slam.landmarks(), nav.slam.landmark_covs(),
+                      truth.obstacle_positions())
+
+
+def landmark_errors(nav: Navigator, truth: TruthWorld) -> list[float]:
+    """Error of each mapped obstacle: by id when ids are known, else the nearest landmark."""
+    landmarks = nav.slam.landmarks()
+    ids = nav.slam.landmark_ids()
+    errors = []
+    for oid, centre in zip(truth.obstacle_ids, truth.obstacle_positions()):
+        if oid in ids:
+            errors.append(float(np.hypot(*(landmarks[ids.index(oid)] - centre))))
+        elif len(landmarks) and any(i is None or i < 0 for i in ids):
+            gaps = np.hypot(*(landmarks - centre).T)
+            if gaps.min() < 5.0:
+                errors.append(float(gaps.min()))
+    return errors
+
+
+def nees_band(runs: int, dim: int = 3, confidence: float = 0.95) -> tuple[float, float]:
+    """Two-sided band for the NEES averaged over ``runs`` runs (chi-square with runs*dim dof)."""
+    tail = (1.0 - confidence) / 2.0
+    lo, hi = chi2.ppf([tail, 1.0 - tail], runs * dim)
+    return float(lo / runs), float(hi / runs)
+
+
+def aggregate(outcomes: list[RunOutcome], safety_distance_m: float) -> dict:
+    """The aggregate block of the JSON report."""
+    return aggregate_summaries([o.summary for o in outcomes],
+                               [o.trace.pose_nees for o in outcomes], safety_distance_m)
+
+
+def aggregate_summaries(summaries: list[dict], pose_nees: list, safety_distance_m: float) -> dict:
+    """``aggregate`` from what a run leaves behind: its summary and its per-step pose NEES.
+
+    ``pose_nees[i]`` is run i's NEES sequence (any length); campaigns ship only these, not traces.
+    """
+    clearances = np.array([s["min_clearance_m"] if s["min_clearance_m"] is not None else math.inf
+                           for s in summaries])
+    errors = np.array([s["final_position_error_m"] for s in summaries])
+    success = [s["reached_goal"] and c >= 0.95 * safety_distance_m
+               for s, c in zip(summaries, clearances)]
+    steps = min(len(n) for n in pose_nees)
+    nees = np.array([np.asarray(n, dtype=float)[:steps] for n in pose_nees]).reshape(len(summaries), steps)
+    avg = nees.mean(axis=0) if steps else np.array([])
+    lo, hi = nees_band(len(summaries))
+    finite_clear = clearances[np.isfinite(clearances)]
+    return {
+        "runs": len(summaries),
+        "success_rate": float(np.mean(success)),
+        "collision_rate": float(np.mean([s["collided"] for s in summaries])),
+        "min_clearance_m": {
+            "min": float(finite_clear.min()) if finite_clear.size else None,
+            "p5": float(np.percentile(finite_clear, 5)) if finite_clear.size else None,
+            "median": float(np.median(finite_clear)) if finite_clear.size else None,
+        },
+        "min_surface_clearance_m": surface_figures(summaries),
+        "final_position_error_m": {
+            "median": float(np.median(errors)), "p95": float(np.percentile(errors, 95)),
+            "max": float(errors.max()),
+        },
+        "nees": {
+            "mean": float(avg.mean()) if avg.size else None,
+            "in_band_fraction": float(np.mean((avg > lo) & (avg < hi))) if avg.size else None,
+            "band": [lo, hi],
+            "steps": int(steps),
+        },
+        "path_length_m": {"median": float(np.median([s["path_length_m"] for s in summaries]))},
+        "arrivals": arrival_figures(summaries),
+        "landmarks": landmark_figures(summaries),
+    }
+
+
+def surface_figures(summaries: list[dict]) -> dict:
+    """Closest approach to any surface (a circle's centre distance less its radius; walls and
+    buildings as in min_clearance_m) over the runs that report it."""
+    gaps = np.array([s["min_surface_clearance_m"] for s in summaries
+                     if s.get("min_surface_clearance_m") is not None])
+    if not gaps.size:
+        return {}
+    return {"min": float(gaps.min()), "p5": float(np.percentile(gaps, 5)),
+            "median": float(np.median(gaps))}
+
+
+def landmark_figures(summaries: list[dict]) -> dict:
+    """Landmarks left in the map at the end against the obstacles the camera had in view, and
+    the lifecycle's counters, summed over the runs."""
+    rows = [s["landmarks"] for s in summaries if "landmarks" in s]
+    if not rows:
+        return {}
+    ratios = [r["final"] / r["obstacles_seen"] for r in rows if r["obstacles_seen"]]
+    total = {key: sum(r[key] for r in rows)
+             for key in ("final", "final_confirmed", "obstacles_seen", "confirmed", "deleted",
+                         "expired")}
+    return {**total,
+            "final_per_obstacle_seen": (total["final"] / total["obstacles_seen"]
+                                        if total["obstacles_seen"] else None),
+            "max_run_ratio": max(ratios, default=None)}
+
+
+def arrival_figures(summaries: list[dict]) -> dict:
+    """How many runs declared arrival, how many held with an uncertain one, and how far from
+    the goal the truth was at the worst declared arrival."""
+    declared = [s for s in summaries if s.get("arrived")]
+    return {
+        "declared": len(declared),
+        "uncertain": sum(1 for s in summaries if s.get("arrival_uncertain_t_s") is not None),
+        "max_true_goal_distance_m": max((s["final_goal_distance_m"] for s in declared),
+                                        default=None),
+    }

@@ -1,0 +1,240 @@
+"""The in-process truth world of ``companion simulate``: the vehicle and the camera, with noise.
+
+Two vehicles: the paper's unicycle (``step``: it flies along its yaw) and a multicopter
+(``step_copter``: a velocity command with an independent yaw, as ArduCopter's GUIDED).
+
+Only the simulation uses this; the estimator sees what it returns (noisy odometry and noisy
+observations), never the state. It has its own random source, seeded per run.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from companion.config.schema import Scenario
+from companion.core.estimation.ekf_slam import Observation
+from companion.core import shapes
+from companion.core.geometry import is_visible, move, wrap_angle
+
+FALSE_ALARM_MIN_RANGE_M = 0.5
+
+
+@dataclass(frozen=True)
+class Odometry:
+    """What the autopilot reports for one step: speed and heading change, both noisy."""
+    speed_mps: float
+    heading_change_rad: float
+
+
+@dataclass(frozen=True)
+class CopterOdometry:
+    """What a multicopter's autopilot reports for one step, all noisy: the NED velocity, the yaw
+    rate over the step, the AHRS yaw, and the horizontal position with a GPS's error."""
+    vel_north_mps: float
+    vel_east_mps: float
+    yaw_rate_rad_s: float
+    yaw_rad: float
+    position_ne_m: tuple[float, float]
+
+
+@dataclass(frozen=True)
+class Clearance:
+    """``clearance_m``: to a circle's centre (the paper's figure, comparable with d), to a wall's
+    or building's surface. ``surface_m``: to the nearest surface of anything (a circle's centre
+    distance minus its radius). Negative ``surface_m``: inside, a collision."""
+    clearance_m: float
+    surface_m: float
+
+
+def gauss_markov_step(value, sigma: float, tau_s: float, dt_s: float, rng: np.random.Generator,
+                      size: int | None = None):
+    """One ``dt_s`` step of a first-order Gauss-Markov process of stationary ``sigma`` and
+    correlation time ``tau_s`` (a GPS's or an AHRS's slow bias): one normal draw of ``size``."""
+    keep = math.exp(-dt_s / tau_s)
+    return keep * value + rng.normal(0.0, sigma * math.sqrt(1.0 - keep * keep), size)
+
+
+class TruthWorld:
+    """The vehicle's true pose and speed, the obstacles' true positions, and the sensors."""
+
+    def __init__(self, scenario: Scenario, rng: np.random.Generator) -> None:
+        self.scenario = scenario
+        self.rng = rng
+        start = scenario.world.start
+        self.pose = np.array([start.north_m, start.east_m, wrap_angle(start.yaw_rad)])
+        self.speed_mps = scenario.vehicle.speed_mps   # the paper starts already cruising
+        self.t_s = 0.0
+        obstacles = scenario.world.obstacles
+        self._obstacle_start = np.array([[o.north_m, o.east_m] for o in obstacles]).reshape(-1, 2)
+        self._obstacle_vel = np.array([[o.vel_north_mps, o.vel_east_mps]
+                                       for o in obstacles]).reshape(-1, 2)
+        self.obstacle_radii = np.array([o.radius_m for o in obstacles])
+        self.obstacle_ids = [o.id for o in obstacles]
+        # walls and buildings: static convex polygons (core/shapes.py), seen by sectors only
+        self.shape_ids = [shape.id for _, shape in scenario.world.shapes()]
+        self.shape_corners = [shape.corners_ne() for _, shape in scenario.world.shapes()]
+        # The multicopter: a velocity of its own (it starts cruising along its yaw, as the
+        # unicycle does) and a GPS bias, drawn only when it flies (the unicycle's random stream
+        # stays as it was).
+        self.vel_ne_mps = self.speed_mps * np.array([math.cos(self.pose[2]), math.sin(self.pose[2])])
+        self._gps_bias_m: np.ndarray | None = None
+        # The AHRS's slow yaw error (noise.yaw_bias_sigma_deg, Gauss-Markov over yaw_bias_tau_s):
+        # drawn only when it has a sigma, so scenarios without one keep their random stream.
+        self.yaw_bias_rad = 0.0
+        if scenario.noise.yaw_bias_sigma_deg > 0.0:
+            self.yaw_bias_rad = float(rng.normal(0.0,
+                                                 math.radians(scenario.noise.yaw_bias_sigma_deg)))
+        self.seen_ids: set[int] = set()          # obstacles ever in the camera's view
+
+    def obstacle_positions(self) -> np.ndarray:
+        """True obstacle centres now, (n, 2)."""
+        return self._obstacle_start + self._obstacle_vel * self.t_s
+
+    def step(self, speed_cmd_mps: float, heading_change_rad: float) -> Odometry:
+        """Advance one vehicle.dt_s: accel-limited speed, the given (already limited) heading change."""
+        vehicle = self.scenario.vehicle
+        dt = vehicle.dt_s
+        max_dv = vehicle.max_accel_mps2 * dt
+        self.speed_mps += max(-max_dv, min(max_dv, speed_cmd_mps - self.speed_mps))
+        self.pose = move(self.pose, self.speed_mps, heading_change_rad, dt)
+        self.t_s += dt
+        noise = self.scenario.noise
+        if self.speed_mps == 0.0 and heading_change_rad == 0.0:
+            return Odometry(0.0, 0.0)       # a vehicle at rest knows it is still
+        return Odometry(
+            self.speed_mps + self.rng.normal(0.0, noise.speed_sigma_mps),
+            heading_change_rad + self.rng.normal(0.0, math.radians(noise.heading_change_sigma_deg)))
+
+    def step_copter(self, vel_cmd_ne_mps: np.ndarray, yaw_cmd_rad: float) -> CopterOdometry:
+        """Advance one vehicle.dt_s as ArduCopter in GUIDED with the velocity + yaw mask: the
+        velocity moves toward the command (acceleration-limited as a vector), the yaw turns
+        toward the commanded yaw at max_turn_rate on its own, so course and heading differ."""
+        vehicle = self.scenario.vehicle
+        dt = vehicle.dt_s
+        dv = np.asarray(vel_cmd_ne_mps, dtype=float) - self.vel_ne_mps
+        dv_norm = float(np.hypot(*dv))
+        max_dv = vehicle.max_accel_mps2 * dt
+        if dv_norm > max_dv:
+            dv *= max_dv / dv_norm
+        mean_vel = self.vel_ne_mps + 0.5 * dv            # constant acceleration over the step
+        self.vel_ne_mps = self.vel_ne_mps + dv
+        max_turn = vehicle.max_turn_rate_rad_s * dt
+        # ArduCopter turns by its own (AHRS) yaw: the true heading settles off by its bias
+        turn = max(-max_turn, min(max_turn, wrap_angle(yaw_cmd_rad - self.pose[2]
+                                                       - self.yaw_bias_rad)))
+        self.pose = np.array([self.pose[0] + mean_vel[0] * dt, self.pose[1] + mean_vel[1] * dt,
+                              wrap_angle(self.pose[2] + turn)])
+        self.speed_mps = float(np.hypot(*self.vel_ne_mps))
+        self.t_s += dt
+        return self.copter_odometry(turn / dt)
+
+    def copter_odometry(self, true_yaw_rate_rad_s: float) -> CopterOdometry:
+        """The autopilot's noisy report of the present state (see CopterOdometry)."""
+        noise, rng, dt = self.scenario.noise, self.rng, self.scenario.vehicle.dt_s
+        tau = noise.position_bias_tau_s
+        if self._gps_bias_m is None:
+            self._gps_bias_m = rng.normal(0.0, noise.position_bias_sigma_m, 2)
+        else:
+            self._gps_bias_m = gauss_markov_step(self._gps_bias_m, noise.position_bias_sigma_m,
+                                                 tau, dt, rng, 2)
+        vel = self.vel_ne_mps + rng.normal(0.0, noise.velocity_sigma_mps, 2)
+        fix = self.pose[:2] + self._gps_bias_m + rng.normal(0.0, noise.position_sigma_m, 2)
+        if noise.yaw_bias_sigma_deg > 0.0:
+            self.yaw_bias_rad = float(gauss_markov_step(
+                self.yaw_bias_rad, math.radians(noise.yaw_bias_sigma_deg), noise.yaw_bias_tau_s,
+                dt, rng))
+        return CopterOdometry(
+            float(vel[0]), float(vel[1]),
+            true_yaw_rate_rad_s + rng.normal(0.0, math.radians(noise.yaw_rate_sigma_deg_s)),
+            wrap_angle(self.pose[2] + self.yaw_bias_rad
+                       + rng.normal(0.0, math.radians(noise.yaw_sigma_deg))),
+            (float(fix[0]), float(fix[1])))
+
+    def observe_sectors(self) -> tuple[np.ndarray, np.ndarray, float]:
+        """One depth frame: per bin, the nearest obstacle surface along the ray through the bin's
+        centre (ray-cast against every circle, wall and building), with range noise; a bin is missed with
+        miss_probability; false alarms (as many as the centre form's, per frame) put a surface
+        in a random bin at a range uniform over the view's area, if nearer than what is there.
+        Returns (ranges_m (n,), NaN where nothing; bin-centre bearings (n,); increment_rad)."""
+        sensor, rng = self.scenario.sensor, self.rng
+        count, fov = sensor.sector_count, sensor.fov_rad
+        increment = fov / count
+        bearings = -0.5 * fov + increment * (np.arange(count) + 0.5)
+        directions = self.pose[2] + bearings
+        rays = np.column_stack((np.cos(directions), np.sin(directions)))        # (n, 2)
+        ranges = self.surface_ranges(rays)
+        centres = self.obstacle_positions() - self.pose[:2]
+        seen = np.isfinite(ranges) & (ranges <= sensor.max_range_m)
+        for oid, centre in zip(self.obstacle_ids, centres):
+            if is_visible(math.hypot(*centre), wrap_angle(math.atan2(centre[1], centre[0])
+                                                            - self.pose[2]),
+                          fov, sensor.max_range_m):
+                self.seen_ids.add(oid)
+        if sensor.miss_probability:
+            seen &= rng.random(count) >= sensor.miss_probability
+        sigma = sensor.range_sigma_at(np.where(seen, ranges, 0.0))     # stereo: grows as r^2
+        out = np.where(seen, ranges + rng.normal(0.0, sigma, count), np.nan)
+        if sensor.false_alarm_rate_hz:
+            for _ in range(rng.poisson(sensor.false_alarm_rate_hz / sensor.rate_hz)):
+                i = int(rng.integers(count))
+                r = max(FALSE_ALARM_MIN_RANGE_M, sensor.max_range_m * math.sqrt(rng.random()))
+                out[i] = r if not np.isfinite(out[i]) else min(out[i], r)
+        return out, bearings, increment
+
+    def surface_ranges(self, rays: np.ndarray) -> np.ndarray:
+        """Distance along each unit ray (n, 2) from the vehicle to the nearest surface of any
+        obstacle, wall or building (inf where none), (n,); a shape a ray meets within the
+        sensor's range counts as seen."""
+        origin = self.pose[:2]
+        ranges = shapes.ray_cast_circles(origin, rays, self.obstacle_positions(),
+                                         self.obstacle_radii)
+        for oid, corners in zip(self.shape_ids, self.shape_corners):
+            hits = shapes.ray_cast_polygon(origin, rays, corners)
+            if np.any(hits <= self.scenario.sensor.max_range_m):
+                self.seen_ids.add(oid)
+            ranges = np.minimum(ranges, hits)
+        return ranges
+
+    def clearance(self) -> "Clearance":
+        """How close the vehicle is now to every obstacle, wall and building (see Clearance)."""
+        position = self.pose[:2]
+        centre_m = surface_m = math.inf
+        if len(self.obstacle_ids):
+            gaps = shapes.circle_distance_m(position, self.obstacle_positions(),
+                                            self.obstacle_radii)[0]
+            centre_m = float((gaps + self.obstacle_radii).min())
+            surface_m = float(gaps.min())
+        shape_m = min((float(shapes.polygon_distance_m(position, c)[0])
+                       for c in self.shape_corners), default=math.inf)
+        return Clearance(min(centre_m, shape_m), min(surface_m, shape_m))
+
+    def observe(self) -> list[Observation]:
+        """One camera frame: every obstacle centre in view, with R noise (the range's sigma
+        growing with the range's square for a stereo camera, sensor.range_sigma_at), misses,
+        false alarms."""
+        sensor = self.scenario.sensor
+        rng = self.rng
+        frame = []
+        for oid, centre in zip(self.obstacle_ids, self.obstacle_positions()):
+            d = centre - self.pose[:2]
+            range_m = math.hypot(d[0], d[1])
+            bearing = wrap_angle(math.atan2(d[1], d[0]) - self.pose[2])
+            if not is_visible(range_m, bearing, sensor.fov_rad, sensor.max_range_m):
+                continue
+            self.seen_ids.add(oid)
+            if sensor.miss_probability and rng.random() < sensor.miss_probability:
+                continue
+            frame.append(Observation(
+                range_m + rng.normal(0.0, sensor.range_sigma_at(range_m)),
+                wrap_angle(bearing + rng.normal(0.0, sensor.bearing_sigma_rad)),
+                oid if sensor.report_ids else None))
+        if sensor.false_alarm_rate_hz:
+            # Clutter uniform over the area of the view (a spatial Poisson process, the usual
+            # clutter model, and what the stub draws): the range's density grows with the range.
+            # Uniform in range would put half the false alarms within 20 m of a 40 m camera.
+            for _ in range(rng.poisson(sensor.false_alarm_rate_hz / sensor.rate_hz)):
+                range_m = max(FALSE_ALARM_MIN_RANGE_M, sensor.max_range_m * math.sqrt(rng.random()))
+                frame.append(Observation(range_m, rng.uniform(-0.5, 0.5) * sensor.fov_rad, None))
+        return frame

@@ -1,0 +1,514 @@
+"""``companion demo``: the stub, the companion daemon and a ground station, over loopback.
+
+Three processes, nothing shared but sockets: ``sitl-stub`` (the vehicle and its camera), ``companion
+run`` (the daemon, on the stub's UDP port) and this one, a ground station on the stub's TCP port
+that sets GUIDED and arms. When the companion reports arrival, both children get SIGTERM and the
+flight is scored like ``companion simulate``: truth from the stub's truth log, the estimate from
+the companion's report, aligned on the vehicle's time since boot.
+
+Lock-step (the default): the stub steps only when the companion has caught up, so the flight is
+the same whatever the machine's load. The stub holds t = 0 until the companion's first ODOMETRY;
+the ground station sets the streams the companion will ask for, GUIDED and arms in that hold, and
+only then starts the companion, so every run starts from the same instant. Scored from the
+companion's report at arrival (later ones depend on when the children were stopped).
+"""
+from __future__ import annotations
+
+import asyncio
+import dataclasses
+import json
+import logging
+import math
+import signal
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from companion.mavlink import codec
+from companion.mavlink.link import open_link
+from companion.tools.child_lifetime import die_with_parent_hook
+from companion.config.schema import (CompanionConfig, GoalConfig, Scenario, config_to_dict, load_config,
+                              read_signing_key)
+from companion.core import shapes
+from companion.core.geometry import wrap_angle
+from companion.errors import CompanionError
+from companion.config.paths import resolve_config
+from companion.daemon.service import STREAMS
+from companion.sim.simulation import ARRIVAL_ALLOWANCE_M, aggregate_summaries, perception_delay_s
+
+log = logging.getLogger(__name__)
+
+GCS_SYSTEM_ID = 255
+READY_TIMEOUT_S = 20.0
+COMMAND_RETRY_S = 0.5
+COMMAND_TIMEOUT_S = 15.0
+STOP_TIMEOUT_S = 5.0
+SETTLE_TIMEOUT_S = 3.0
+POLL_S = 0.1
+TAKEOFF_ALT_M = 10.0             # NAV_TAKEOFF altitude above home (docs/real-vehicle.md workflow)
+TAKEOFF_ATTEMPTS = 3
+CLIMB_EVIDENCE_M = 1.0           # LOCAL_POSITION_NED this far up: the takeoff is under way
+TAKEOFF_CLIMB_SIM_S = 10.0       # spool-up (2.5 s) and the first metre, with margin: simulated s
+TAKEOFF_RETRY_SIM_S = 2.0        # NAV_TAKEOFF resent this often (simulated s) until accepted
+LOCKSTEP_MIN_REAL_TIME_FACTOR = 5.0   # the flight's wall deadline in lock-step assumes this
+
+
+class DemoError(CompanionError):
+    """The demo could not run: a child died, a deadline passed, a command was refused."""
+
+
+@dataclass(frozen=True)
+class DemoFiles:
+    workdir: Path
+    tlog: Path | None
+
+    @property
+    def truth(self) -> Path:
+        return self.workdir / "truth.jsonl"
+
+    @property
+    def report(self) -> Path:
+        return self.workdir / "companion-report.json"
+
+    @property
+    def config(self) -> Path:
+        return self.workdir / "companion.yaml"
+
+
+def demo_config(scenario: Scenario, base_path: str = "config/companion.yaml",
+                signing_key_file: Path | None = None) -> CompanionConfig:
+    """The companion's settings for a scenario: its estimator, avoidance, goal and limits;
+    signed traffic with the key in ``signing_key_file`` (an absolute path) if given."""
+    base = load_config(resolve_config(base_path))
+    if signing_key_file is not None:
+        base = dataclasses.replace(base, link=dataclasses.replace(
+            base.link, signing_key_file=str(signing_key_file)))
+    goal = scenario.world.goal
+    estimator = scenario.estimator_config(flown_as="multicopter")
+    commanding = dataclasses.replace(
+        base.commanding, cruise_speed_mps=scenario.vehicle.speed_mps,
+        max_speed_mps=max(base.commanding.max_speed_mps, scenario.vehicle.speed_mps),
+        max_turn_rate_deg_s=scenario.vehicle.max_turn_rate_deg_s,
+        max_accel_mps2=scenario.vehicle.max_accel_mps2,
+        perception_delay_s=perception_delay_s(estimator, scenario))
+    return dataclasses.replace(base, estimator=estimator,
+                               avoidance=scenario.avoidance, commanding=commanding,
+                               goal=GoalConfig(goal.north_m, goal.east_m, goal.radius_m),
+                               flight=dataclasses.replace(base.flight, takeoff_alt_m=TAKEOFF_ALT_M))
+
+
+class Child:
+    """A subprocess whose stderr goes to a file, so a crash can be explained."""
+
+    def __init__(self, name: str, proc: asyncio.subprocess.Process, stderr_path: Path) -> None:
+        self.name, self.proc, self.stderr_path = name, proc, stderr_path
+
+    def stderr_tail(self, lines: int = 15) -> str:
+        try:
+            text = self.stderr_path.read_text(errors="replace")
+        except OSError:
+            return ""
+        return "\n".join(text.strip().splitlines()[-lines:])
+
+    def check_alive(self) -> None:
+        if self.proc.returncode is not None:
+            raise DemoError(f"{self.name} exited early with code {self.proc.returncode}:\n"
+                            f"{self.stderr_tail()}")
+
+    async def stop(self) -> int | None:
+        """SIGTERM, then SIGKILL after STOP_TIMEOUT_S. Returns the exit code."""
+        if self.proc.returncode is None:
+            self.proc.send_signal(signal.SIGTERM)
+            try:
+                async with asyncio.timeout(STOP_TIMEOUT_S):
+                    await self.proc.wait()
+            except TimeoutError:
+                log.warning("%s ignored SIGTERM: killing it", self.name)
+                self.proc.kill()
+                await self.proc.wait()
+        return self.proc.returncode
+
+
+async def spawn(name: str, args: list[str], workdir: Path, stdout=None) -> Child:
+    stderr_path = workdir / f"{name}.stderr"
+    with open(stderr_path, "wb") as err:
+        proc = await asyncio.create_subprocess_exec(*args, stdout=stdout, stderr=err,
+                                                    stdin=asyncio.subprocess.DEVNULL,
+                                                    preexec_fn=die_with_parent_hook())
+    return Child(name, proc, stderr_path)
+
+
+async def wait_for_ready(stub: Child) -> tuple[int, int]:
+    """The stub's READY line -> (tcp port, udp port)."""
+    try:
+        async with asyncio.timeout(READY_TIMEOUT_S):
+            while line := await stub.proc.stdout.readline():
+                text = line.decode(errors="replace").strip()
+                if text.startswith("SITL_STUB READY"):
+                    ports = dict(part.split("=", 1) for part in text.split()[2:])
+                    return int(ports["tcp"].rpartition(":")[2]), int(ports["udp"].rpartition(":")[2])
+    except TimeoutError:
+        raise DemoError(f"sitl-stub not ready after {READY_TIMEOUT_S:.0f} s:\n"
+                        f"{stub.stderr_tail()}") from None
+    await stub.proc.wait()
+    stub.check_alive()
+    raise DemoError("sitl-stub closed its stdout without a READY line")
+
+
+def read_report(path: Path) -> dict | None:
+    try:
+        return json.loads(path.read_text())
+    except (OSError, ValueError):
+        return None
+
+
+async def wait_for(condition, what: str, timeout_s: float, children: list[Child]):
+    """Poll ``condition()`` until it returns something truthy; children must stay alive."""
+    try:
+        async with asyncio.timeout(timeout_s):
+            while True:
+                for child in children:
+                    child.check_alive()
+                if result := condition():
+                    return result
+                await asyncio.sleep(POLL_S)
+    except TimeoutError:
+        raise DemoError(f"timed out after {timeout_s:.0f} s waiting for {what}") from None
+
+
+async def command_until_accepted(link, msg_factory, name: str, children: list[Child],
+                                 timeout_s: float = COMMAND_TIMEOUT_S,
+                                 retry_s: float = COMMAND_RETRY_S, is_answer=None) -> None:
+    """Send a command every ``retry_s`` until its COMMAND_ACK says accepted."""
+    is_answer = is_answer or (lambda ack: codec.is_ack_for(ack, name))
+    try:
+        async with asyncio.timeout(timeout_s):
+            while True:
+                for child in children:
+                    child.check_alive()
+                link.send(msg_factory())
+                try:
+                    async with asyncio.timeout(retry_s):
+                        while True:
+                            event = codec.decode((await link.inbox.get()).msg)
+                            if isinstance(event, codec.CommandAck) and is_answer(event):
+                                if event.accepted:
+                                    return
+                                log.info("%s refused (result %d): retrying", name, event.result)
+                                break
+                except TimeoutError:
+                    pass
+    except TimeoutError:
+        raise DemoError(f"the vehicle did not accept {name} within {timeout_s:.0f} s") from None
+
+
+async def ground_station(tcp_port: int, files: DemoFiles, scenario: Scenario, speedup: float,
+                         children: list[Child], config: CompanionConfig,
+                         start_companion=None) -> tuple[dict, list]:
+    """Set GUIDED, arm, take off, and wait for the companion to report arrival; returns its
+    report and the (wall s, vehicle s) pairs seen after the takeoff. ``start_companion``
+    (lock-step): a coroutine function starting the companion, called once the takeoff is
+    accepted, while the stub still holds the vehicle's time at 0 (so the companion is up from
+    the vehicle's boot, as in docs/real-vehicle.md)."""
+    key = read_signing_key(config.link)
+    async with open_link(f"tcp:127.0.0.1:{tcp_port}",
+                         codec.Encoder(GCS_SYSTEM_ID, codec.MAV_COMP_ID_MISSIONPLANNER, key),
+                         signing_key=key) as link:
+        async with asyncio.TaskGroup() as tg:
+            receiver = tg.create_task(link.run(), name="gcs-receive")
+            if start_companion is None:
+                await wait_for(lambda: read_report(files.report), "the companion's estimator",
+                               READY_TIMEOUT_S, children)
+            else:
+                await set_companion_streams(link, config, children)
+            await command_until_accepted(
+                link, lambda: codec.set_mode(1, 1, config.link.guided_custom_mode), "set_mode",
+                children)
+            # resend well within DISARM_DELAY (10 s simulated): a lost takeoff must not let the
+            # vehicle disarm on the ground before the next one
+            await take_off(link, TAKEOFF_ALT_M, children,
+                           max(COMMAND_TIMEOUT_S / 3, TAKEOFF_CLIMB_SIM_S / speedup),
+                           min(COMMAND_RETRY_S, TAKEOFF_RETRY_SIM_S / speedup))
+            clock = tg.create_task(track_vehicle_time(link, samples := []), name="gcs-clock")
+            flight_sim_s = scenario.mission.max_time_s + 30.0      # the climb included
+            if start_companion is not None:
+                await start_companion()
+                flight_s = flight_sim_s / LOCKSTEP_MIN_REAL_TIME_FACTOR + 30.0
+            else:
+                flight_s = flight_sim_s / speedup + 30.0
+            report = await wait_for(
+                lambda: (r := read_report(files.report)) and r.get("arrived") and r,
+                "the vehicle to arrive", flight_s, children)
+            await wait_until_settled(files.truth)
+            receiver.cancel()
+            clock.cancel()
+    return report, samples
+
+
+async def set_companion_streams(link, config: CompanionConfig, children: list[Child]) -> None:
+    """SET_MESSAGE_INTERVAL for what the companion will ask, before it runs: its own requests
+    then change nothing, wherever in the flight they land."""
+    for msg_id, key in STREAMS:
+        rate_hz = getattr(config.streams, key)
+        await command_until_accepted(
+            link, lambda: codec.set_message_interval(1, 1, msg_id, rate_hz),
+            "set_message_interval", children, is_answer=codec.is_set_message_interval_ack)
+
+
+async def track_vehicle_time(link, samples: list) -> None:
+    """(wall s, vehicle s) of every message with a time_boot_ms, until cancelled."""
+    loop = asyncio.get_running_loop()
+    while True:
+        t_ms = getattr((await link.inbox.get()).msg, "time_boot_ms", None)
+        if t_ms is not None:
+            samples.append((loop.time(), t_ms / 1000.0))
+
+
+def flight_timing(samples: list, t0_s: float, t_arrival_s: float | None) -> dict:
+    """Wall seconds of the flight, from the first vehicle time after ``t0_s`` to the arrival
+    (process start-up and the lock-step hold for the companion not counted), and the real-time
+    factor; None where the samples cannot tell."""
+    none = {"flight_sim_s": None, "flight_wall_s": None, "real_time_factor": None}
+    moving = [(w, t) for w, t in samples if t > t0_s + 1e-9]
+    if t_arrival_s is None or not moving:
+        return none
+    wall0, vehicle0 = moving[0]
+    end = next((w for w, t in moving if t >= t_arrival_s - 1e-9), None)
+    if end is None or end <= wall0:
+        return none
+    return {"flight_sim_s": round(t_arrival_s - vehicle0, 6), "flight_wall_s": round(end - wall0, 4),
+            "real_time_factor": round((t_arrival_s - vehicle0) / (end - wall0), 1)}
+
+
+async def take_off(link, alt_m: float, children: list[Child], climb_timeout_s: float,
+                   retry_s: float = COMMAND_RETRY_S) -> None:
+    """Arm, then NAV_TAKEOFF to ``alt_m`` until it is accepted or the vehicle is seen climbing:
+    the companion, up since boot, commands once the climb is over. The climb counts as much as
+    the ACK: an ACK lost on a lossy link makes the resent takeoff look refused (ArduCopter refuses
+    a second one in the air). ArduCopter disarms a vehicle left idle on the ground for
+    DISARM_DELAY, and at a high speedup those 10 s pass quickly: nothing in time, arm again."""
+    for attempt in range(1, TAKEOFF_ATTEMPTS + 1):
+        await command_until_accepted(link, lambda: codec.arm(1, 1), "arm", children,
+                                     retry_s=retry_s)
+        if await wait_for_takeoff(link, lambda: codec.takeoff(1, 1, alt_m), climb_timeout_s,
+                                  children, retry_s):
+            log.info("GUIDED, armed, taking off to %.0f m", alt_m)
+            return
+        log.warning("NAV_TAKEOFF neither accepted nor climbing (attempt %d): arming again",
+                    attempt)
+    raise DemoError(f"the vehicle did not take off to {alt_m:.0f} m in {TAKEOFF_ATTEMPTS} tries")
+
+
+async def wait_for_takeoff(link, takeoff_factory, timeout_s: float, children: list[Child],
+                           retry_s: float) -> bool:
+    """Send NAV_TAKEOFF every ``retry_s``; True once it is accepted or LOCAL_POSITION_NED (if the
+    link carries it) shows the vehicle CLIMB_EVIDENCE_M up; False after ``timeout_s``."""
+    try:
+        async with asyncio.timeout(timeout_s):
+            while True:
+                for child in children:
+                    child.check_alive()
+                link.send(takeoff_factory())
+                try:
+                    async with asyncio.timeout(retry_s):
+                        while True:
+                            event = codec.decode((await link.inbox.get()).msg)
+                            if isinstance(event, codec.CommandAck) and \
+                                    codec.is_ack_for(event, "takeoff") and event.accepted:
+                                return True
+                            elif isinstance(event, codec.LocalPosition) and \
+                                    event.component_id == codec.MAV_COMP_ID_AUTOPILOT1 and \
+                                    event.down_m < -CLIMB_EVIDENCE_M:
+                                return True
+                except TimeoutError:
+                    pass
+    except TimeoutError:
+        return False
+
+
+async def wait_until_settled(truth_path: Path) -> None:
+    """Give the vehicle a moment to stop (the truth log's speed), at most SETTLE_TIMEOUT_S."""
+    try:
+        async with asyncio.timeout(SETTLE_TIMEOUT_S):
+            while True:
+                records = read_truth(truth_path, tail_only=True)
+                if records and records[-1]["speed_mps"] < 0.05:
+                    return
+                await asyncio.sleep(POLL_S)
+    except TimeoutError:
+        log.info("vehicle still moving %.0f s after arrival; scoring anyway", SETTLE_TIMEOUT_S)
+
+
+def read_truth(path: Path, tail_only: bool = False) -> list[dict]:
+    try:
+        lines = path.read_text().splitlines()
+    except OSError:
+        return []
+    if tail_only:
+        lines = lines[-2:]
+    records = []
+    for line in lines:
+        try:
+            records.append(json.loads(line))
+        except ValueError:
+            continue              # the line being written
+    return records
+
+
+async def run_demo(scenario_path: Path, scenario: Scenario, files: DemoFiles, speedup: float,
+                   seed: int, drop_rate: float, signing_key_file: Path | None = None,
+                   lockstep: bool = True,
+                   view_feed: str | None = None,
+                   lockstep_overlap: bool = False) -> tuple[dict, dict, list[dict], list]:
+    """Fly the scenario; returns (the companion's report, its config, the truth records, the
+    ground station's (wall s, vehicle s) samples).
+    With ``signing_key_file``, the stub, the companion and the ground station all sign.
+    ``lockstep``: stub and companion in lock-step (module docstring); else the stub free-runs at
+    ``speedup`` on the wall clock. ``view_feed``: HOST:PORT the companion sends its live state to
+    (``companion view``). ``lockstep_overlap``: the stub steps on the companion's answer to the
+    sample before the latest (``sitl-stub --lockstep-overlap``)."""
+    config = demo_config(scenario, signing_key_file=signing_key_file)
+    read_signing_key(config.link)             # a bad key file fails here, before any child
+    files.config.write_text(yaml.safe_dump(config_to_dict(config)))
+    for stale in (files.report, files.truth):     # a kept workdir's last run must not score
+        stale.unlink(missing_ok=True)
+    children: list[Child] = []
+    try:
+        stub_args = [sys.executable, "-m", "sitl_stub", "--scenario", str(scenario_path),
+                     "--tcp", "127.0.0.1:0", "--udp", "127.0.0.1:0", "--speedup", str(speedup),
+                     "--seed", str(seed), "--truth-log", str(files.truth)]
+        if drop_rate:
+            stub_args += ["--drop-rate", str(drop_rate)]
+        if signing_key_file is not None:
+            stub_args += ["--signing-key", str(signing_key_file)]
+        if lockstep:
+            stub_args += ["--lockstep"] + (["--lockstep-overlap"] if lockstep_overlap else [])
+        stub = await spawn("sitl-stub", stub_args, files.workdir, stdout=asyncio.subprocess.PIPE)
+        children.append(stub)
+        tcp_port, udp_port = await wait_for_ready(stub)
+        companion_args = [sys.executable, "-m", "companion", "-v", "run",
+                          "--connect", f"udpout:127.0.0.1:{udp_port}",
+                          "--config", str(files.config), "--report", str(files.report)]
+        if files.tlog:
+            companion_args += ["--tlog", str(files.tlog)]
+        if lockstep:
+            companion_args += ["--lockstep"]
+        if view_feed:
+            companion_args += ["--view-feed", view_feed]
+
+        async def start_companion() -> None:
+            children.append(await spawn("companion", companion_args, files.workdir))
+        if not lockstep:
+            await start_companion()
+        report, samples = await ground_station(tcp_port, files, scenario, speedup, children,
+                                               config, start_companion if lockstep else None)
+    finally:
+        # Stop the children together: one slow to exit must not double the wait for Ctrl-C.
+        codes = await asyncio.shield(asyncio.gather(*(child.stop() for child in children)))
+        for child, code in zip(children, codes):
+            if code not in (0, -signal.SIGTERM):
+                log.warning("%s exited with %s", child.name, code)
+    final = report if lockstep else read_report(files.report) or report
+    return final, config_to_dict(config), read_truth(files.truth), samples
+
+
+# ------------------------------------------------------------------ scoring
+def score(report: dict, truth: list[dict], scenario: Scenario, seed: int) -> tuple[dict, dict]:
+    """The per-run summary of ``companion simulate`` and the arrays to plot."""
+    t_true = np.array([r["t_s"] for r in truth])
+    true_pose = np.array([[r["north_m"], r["east_m"], r["yaw_rad"]] for r in truth])
+    armed = [r["t_s"] for r in truth if r["armed"]]
+    t0 = armed[0] if armed else t_true[0]
+    t_arrival = report.get("arrival_t_s") or float(t_true[-1])
+    track = report["track"]
+    t_est = np.array(track["t_s"])
+    est_pose = np.column_stack([track["north_m"], track["east_m"], track["yaw_rad"]])
+    est_cov = np.array(track["pose_cov"]).reshape(-1, 3, 3)
+    flying = (t_est >= t0) & (t_est <= t_arrival + 1e-6)
+    t_est, est_pose, est_cov = t_est[flying], est_pose[flying], est_cov[flying]
+    true_at_est = np.column_stack([np.interp(t_est, t_true, true_pose[:, k]) for k in range(2)])
+    yaw_at_est = np.interp(t_est, t_true, np.unwrap(true_pose[:, 2]))
+    errors = np.hypot(*(est_pose[:, :2] - true_at_est).T)
+    nees = []
+    for est, true_ne, true_yaw, cov in zip(est_pose, true_at_est, yaw_at_est, est_cov):
+        err = np.array([true_ne[0] - est[0], true_ne[1] - est[1], wrap_angle(true_yaw - est[2])])
+        nees.append(float(err @ np.linalg.solve(cov, err)))
+
+    after_arm = [r for r in truth if r["t_s"] >= t0]
+    clearance, surface, collided = math.inf, math.inf, False
+    for r in after_arm:
+        for ob in r["obstacles"]:
+            gap = math.hypot(r["north_m"] - ob["north_m"], r["east_m"] - ob["east_m"])
+            clearance = min(clearance, gap)
+            surface = min(surface, gap - ob["radius_m"])
+            collided = collided or gap < ob["radius_m"]
+    # walls and buildings are static: their surfaces against the whole true path at once
+    flown = np.array([[r["north_m"], r["east_m"]] for r in after_arm]).reshape(-1, 2)
+    outlines = [shape.corners_ne() for _, shape in scenario.world.shapes()]
+    for corners in outlines:
+        if len(flown):
+            gap = float(shapes.polygon_distance_m(flown, corners).min())
+            clearance, surface = min(clearance, gap), min(surface, gap)
+            collided = collided or gap < 0.0
+    flight = np.array([[r["north_m"], r["east_m"]] for r in after_arm if r["t_s"] <= t_arrival])
+    path_m = float(np.sum(np.hypot(*np.diff(flight, axis=0).T))) if len(flight) > 1 else 0.0
+    goal = scenario.world.goal
+    at_arrival = np.array([np.interp(t_arrival, t_true, true_pose[:, k]) for k in range(2)])
+    final_goal_distance = float(math.hypot(at_arrival[0] - goal.north_m, at_arrival[1] - goal.east_m))
+    # at arrival: later records depend on when the children were stopped
+    obstacles_end = next((r["obstacles"] for r in truth if r["t_s"] >= t_arrival),
+                         truth[-1]["obstacles"] if truth else [])
+    summary = {
+        "seed": seed,
+        "reached_goal": bool(report.get("arrived"))
+        and final_goal_distance <= goal.radius_m + ARRIVAL_ALLOWANCE_M,
+        "time_s": round(t_arrival - t0, 6),
+        "min_clearance_m": clearance if math.isfinite(clearance) else None,
+        "min_surface_clearance_m": surface if math.isfinite(surface) else None,
+        "collided": collided,
+        "final_goal_distance_m": final_goal_distance,
+        "final_position_error_m": float(errors[-1]) if len(errors) else None,
+        "max_position_error_m": float(errors.max()) if len(errors) else None,
+        "landmark_errors_m": landmark_errors(report["landmarks"], obstacles_end),
+        "urgent_events": sum(1 for e in report["urgency_events"]
+                             if e["state"] == "urgent" and t0 <= e["t_s"] <= t_arrival),
+        "path_length_m": path_m,
+    }
+    landmarks = report["landmarks"]
+    plot = {
+        "true_ne": true_pose[t_true >= t0][:, :2], "est_ne": est_pose[:, :2],
+        "obstacles_ne": np.array([[o["north_m"], o["east_m"]] for o in obstacles_end]).reshape(-1, 2),
+        "obstacle_radii": np.array([o["radius_m"] for o in obstacles_end]),
+        "landmarks_ne": np.array([[m["north_m"], m["east_m"]] for m in landmarks]).reshape(-1, 2),
+        "landmark_covs": np.array([m["cov_m2"] for m in landmarks]).reshape(-1, 2, 2),
+        "shapes_ne": outlines,
+        "nees": nees,
+    }
+    return summary, plot
+
+
+def landmark_errors(landmarks: list[dict], obstacles: list[dict]) -> list[float]:
+    """Error of each mapped obstacle: by id when ids are known, else the nearest landmark < 5 m."""
+    by_id = {m["id"]: m for m in landmarks if m["id"] is not None}
+    anonymous = np.array([[m["north_m"], m["east_m"]] for m in landmarks if m["id"] is None])
+    errors = []
+    for ob in obstacles:
+        centre = np.array([ob["north_m"], ob["east_m"]])
+        if ob["id"] in by_id:
+            m = by_id[ob["id"]]
+            errors.append(float(np.hypot(m["north_m"] - centre[0], m["east_m"] - centre[1])))
+        elif len(anonymous):
+            gap = float(np.hypot(*(anonymous - centre).T).min())
+            if gap < 5.0:
+                errors.append(gap)
+    return errors
+
+
+def demo_result(summary: dict, nees: list[float], scenario: Scenario) -> dict:
+    agg = aggregate_summaries([summary], [nees], scenario.avoidance.safety_distance_m)
+    agg["strategy"] = scenario.avoidance.strategy
+    agg["scenario"] = scenario.name
+    return {"aggregate": agg, "runs": [summary]}
