@@ -19,8 +19,9 @@ import time
 import numpy as np
 from scipy.linalg.blas import dgemm
 
-from companion.core.estimation.ekf_slam import (LANDMARK_DIM, AssociationGates, EkfSlam, Observation,
-                                      SlamNoise)
+from companion.core.estimation.ekf_slam import EkfSlam
+from companion.core.estimation.slam_types import (AssociationGates, LANDMARK_DIM, Observation,
+                                                  SlamNoise)
 from companion.core.geometry import observe
 from tests.core.dense_reference import DenseEkfSlam
 

@@ -10,7 +10,7 @@ import pytest
 
 from companion.tools import ardupilot_sitl as sitl
 from companion.__main__ import main
-from companion.mavlink.codec import mavlink
+from companion.mavlink.dialect import mavlink
 from companion.tools.autopilot_demo import service_config, sitl_home
 from companion.config.schema import load_config, load_scenario
 from companion.core.flat_earth import to_lat_lon_deg, to_north_east_m

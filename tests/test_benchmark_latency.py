@@ -3,7 +3,7 @@ holds a camera frame (its reports of one time) until a message that is not part 
 reacting setpoint follows that closing message (benchmarks once found no samples at all)."""
 from benchmarks.system import tlog_latencies_ns
 from companion.mavlink import codec
-from companion.mavlink.codec import mavlink
+from companion.mavlink.dialect import mavlink
 from companion.mavlink.tlog import TlogWriter
 
 T0_US = 1_700_000_000_000_000

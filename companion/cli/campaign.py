@@ -191,10 +191,10 @@ def plot_histograms(path: str, rows: list, sweep_name: str | None) -> None:
 
     With a sweep, one outline per value on shared bins, so the rows compare directly.
     """
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     import numpy as np
+
+    from companion.sim.plot import pyplot
+    plt = pyplot()
 
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.2), dpi=110)
     for ax, key, label in ((axes[0], "min_clearance_m", "closest approach to an obstacle centre (m)"),

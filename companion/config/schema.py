@@ -15,7 +15,7 @@ import numpy as np
 from companion.config.loader import FieldError, build, read_yaml, require
 from companion.core import shapes
 from companion.core.estimation.consistency import MonitorParams
-from companion.core.estimation.ekf_slam import AssociationGates, SlamNoise, VelocityNoise
+from companion.core.estimation.slam_types import AssociationGates, SlamNoise, VelocityNoise
 from companion.core.avoidance.guidance import GuidanceParams
 from companion.core.estimation.movers import MoverParams
 from companion.core.estimator_options import EstimatorOptions

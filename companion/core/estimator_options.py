@@ -9,7 +9,7 @@ import math
 from dataclasses import dataclass, replace
 
 from companion.core.estimation.consistency import Consistency, MonitorParams, chi2_quantile
-from companion.core.estimation.ekf_slam import VelocityNoise, chi2_2dof_quantile
+from companion.core.estimation.slam_types import chi2_2dof_quantile, VelocityNoise
 from companion.core.avoidance.guidance import GuidanceCommand
 from companion.core.estimation.lifecycle import LifecycleParams
 

@@ -1,29 +1,39 @@
-"""Latitude/longitude <-> north/east metres near an origin (flat earth, as ArduPilot does).
+"""Latitude/longitude <-> north/east metres near a reference point: ArduPilot's flat earth.
 
-ArduPilot's ``Location::get_distance_NE`` scales degrees by a constant and the longitude by the
-cosine of the latitude; over the few hundred metres of a flight the error is far below a
-centimetre per metre. Radius: WGS-84 equatorial, as the stub uses.
+ArduPilot's ``Location::get_distance_NE`` (AP_Common/Location.cpp): north = dlat x
+LOCATION_SCALING_FACTOR, east = dlon x LOCATION_SCALING_FACTOR x longitude_scale, the longitude
+scale being the cosine of the two points' mean latitude (at least 0.01) and dlon wrapped to
+[-180, 180) degrees; ``Location::offset`` is its inverse. LOCATION_SCALING_FACTOR is metres per
+1e-7 degree, from ArduPilot's RADIUS_OF_EARTH (6378100 m). The one conversion of the package:
+the service's latitude/longitude goals (onboard/goal.py) and the ArduPilot SITL demo's home and
+truth (tools/) both use it. Good to centimetres over a few kilometres.
 """
 from __future__ import annotations
 
 import math
 
-EARTH_RADIUS_M = 6378137.0
+# ArduPilot AP_Common/Location.h: metres per 1e-7 degree of latitude (RADIUS_OF_EARTH 6378100 m)
+LOCATION_SCALING_FACTOR_M = 0.011131884502145034
+MIN_LONGITUDE_SCALE = 0.01      # ArduPilot's longitude_scale floor (near the poles)
 
 
 def to_north_east_m(origin_lat_deg: float, origin_lon_deg: float, lat_deg: float,
                     lon_deg: float) -> tuple[float, float]:
-    """(north_m, east_m) of a point from the origin."""
-    north_m = math.radians(lat_deg - origin_lat_deg) * EARTH_RADIUS_M
-    east_m = (math.radians(lon_deg - origin_lon_deg) * EARTH_RADIUS_M
-              * math.cos(math.radians(origin_lat_deg)))
-    return north_m, east_m
+    """(north_m, east_m) of a point from the origin (Location::get_distance_NE)."""
+    scale = LOCATION_SCALING_FACTOR_M * 1e7
+    mid_lat = math.radians(0.5 * (lat_deg + origin_lat_deg))
+    north = (lat_deg - origin_lat_deg) * scale
+    dlon = (lon_deg - origin_lon_deg + 180.0) % 360.0 - 180.0
+    east = dlon * scale * max(math.cos(mid_lat), MIN_LONGITUDE_SCALE)
+    return north, east
 
 
 def to_lat_lon_deg(origin_lat_deg: float, origin_lon_deg: float, north_m: float,
                    east_m: float) -> tuple[float, float]:
-    """The inverse of to_north_east_m."""
-    lat_deg = origin_lat_deg + math.degrees(north_m / EARTH_RADIUS_M)
-    lon_deg = origin_lon_deg + math.degrees(
-        east_m / (EARTH_RADIUS_M * math.cos(math.radians(origin_lat_deg))))
-    return lat_deg, lon_deg
+    """The point ``north_m``, ``east_m`` from the origin (Location::offset): the inverse of
+    to_north_east_m, the longitude scale taken at the mean latitude as there."""
+    scale = LOCATION_SCALING_FACTOR_M * 1e7
+    dlat = north_m / scale
+    mid_lat = math.radians(origin_lat_deg + 0.5 * dlat)
+    dlon = east_m / (scale * max(math.cos(mid_lat), MIN_LONGITUDE_SCALE))
+    return origin_lat_deg + dlat, (origin_lon_deg + dlon + 180.0) % 360.0 - 180.0

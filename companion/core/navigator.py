@@ -17,19 +17,23 @@ from companion.core.avoidance.commitment import Commitment
 from companion.core.avoidance.seen_space import SeenSpace
 from companion.core.estimation.consistency import Consistency, ConsistencyMonitor
 from companion.core.avoidance.flank_scan import FlankScan, FlankScanParams
-from companion.core.estimation.ekf_slam import AssociationGates, EkfSlam, Observation, SlamNoise, UpdateReport
+from companion.core.estimation.ekf_slam import EkfSlam
+from companion.core.estimation.slam_types import (AssociationGates, Observation, SlamNoise,
+                                                  UpdateReport)
 from companion.core.estimator_options import EstimatorOptions, moderate
 from companion.core.geometry import move, move_velocity, place, wrap_angle
 from companion.core.estimation.lifecycle import Lifecycle, expected_visible
 from companion.core.estimation.motion_evidence import is_straight_track, shared_yaw_velocity_cov
 from companion.core.estimation.range_noise import with_range_model
 from companion.core.perception.surface_cover import covering_nis
-from companion.core.avoidance.guidance import GuidanceCommand, GuidanceParams, guide_apf, guide_cone
+from companion.core.avoidance.guidance import (GuidanceCommand, GuidanceInputs, GuidanceParams,
+                                               guide_apf, guide_cone)
 from companion.core.avoidance.arc import Motion, VehicleLimits
 from companion.core.avoidance.look_at import GoalLookParams, LookAtParams, goal_look_yaw, threat_to_watch
 from companion.core.estimation.movers import (MoverParams, MoverTracker, apparent_velocity, mover_growth,
                                    mover_spread, start_evidence, world_measurement)
 from companion.core.avoidance.union import UnionParams, guide_union
+from companion.core.avoidance.velocity_choice import guide_flyable
 
 # An observation frame stamped at most this much after the last odometry is processed at once
 # (the pose is that close); a later one waits for the odometry that covers its time.
@@ -958,11 +962,13 @@ class Navigator:
             goal_distance = float(np.hypot(*(self.goal - pose[:2])))
             reach = None if motion is None else self.commitment.goal_reach_m(
                 goal_distance, self.params.safety_distance_m, self.union.sensor_range_m or 0.0)
-            command = guide_union(pose, self.goal, obstacles, rel_covs, self.params, self.union,
-                                  self._last_heading, self.commitment.side if motion is not None
-                                  else self._side, velocities, motion, growth, reach or None,
-                                  self.seen, self._spread(movers, len(obstacles), motion),
-                                  self._look_for if self.scan is not None else None)
+            inputs = GuidanceInputs(
+                pose, self.goal, obstacles, rel_covs, self._last_heading,
+                self.commitment.side if motion is not None else self._side, velocities, motion,
+                growth, reach or None, self.seen, self._spread(movers, len(obstacles), motion),
+                self._look_for if self.scan is not None else None)
+            guide = guide_union if motion is None else guide_flyable
+            command = guide(inputs, self.params, self.union)
             self._side = command.side
             if motion is not None and command.mode != "arrived":
                 self.commitment = self.commitment.after(command.side, goal_distance)

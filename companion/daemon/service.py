@@ -21,16 +21,15 @@ to the pipeline and the tlog, and our heartbeat schedule, come from the vehicle'
 from __future__ import annotations
 
 import asyncio
-import json
 import logging
 import math
-import os
 import signal
 from dataclasses import asdict
 from pathlib import Path
 
 import yaml
 
+from companion.mavlink import dialect
 from companion.mavlink import codec, mission_codec
 from companion.mavlink.link import MavlinkLink, open_link
 from companion.mavlink.tlog import TlogWriter
@@ -38,7 +37,7 @@ from companion.config.schema import CompanionConfig, config_to_dict, read_signin
 from companion.errors import ShutdownRequested
 from companion.daemon.lockstep import VehicleLinkClock, lockstep_config
 from companion.onboard.pipeline import Arrived, NavigatorStarted, Pipeline, StreamsWanted, snapshot
-from companion.tools.report import _clean
+from companion.tools.report import write_json
 from companion.onboard.safety.notices import NoticeLimiter
 from companion.onboard.stream_rates import StreamRateWatch
 from companion.view import feed
@@ -50,13 +49,13 @@ WATCHDOG_INTERVAL_S = 0.2
 # The report keeps the latest hour of track at 10 Hz (about 4 MB); the daemon flies for longer.
 REPORT_TRACK_ROWS = 36_000
 PLACEHOLDER_SYSTEM_ID = 1        # our system id until the vehicle's is known (if not configured)
-STREAMS = ((codec.MSG_ID_ATTITUDE, "attitude_rate_hz"),
-           (codec.MSG_ID_LOCAL_POSITION_NED, "local_position_rate_hz"),
-           (codec.MSG_ID_EXTENDED_SYS_STATE, "landed_state_rate_hz"),      # flight phases
-           (codec.MSG_ID_GLOBAL_POSITION_INT, "global_position_rate_hz"),
-           (codec.MSG_ID_GPS_RAW_INT, "gps_raw_rate_hz"),                # position fusion 'auto'
-           (codec.MSG_ID_EKF_STATUS_REPORT, "ekf_status_rate_hz"))
-ODOMETRY_STREAMS = (codec.MSG_ID_ATTITUDE, codec.MSG_ID_LOCAL_POSITION_NED)
+STREAMS = ((dialect.MSG_ID_ATTITUDE, "attitude_rate_hz"),
+           (dialect.MSG_ID_LOCAL_POSITION_NED, "local_position_rate_hz"),
+           (dialect.MSG_ID_EXTENDED_SYS_STATE, "landed_state_rate_hz"),      # flight phases
+           (dialect.MSG_ID_GLOBAL_POSITION_INT, "global_position_rate_hz"),
+           (dialect.MSG_ID_GPS_RAW_INT, "gps_raw_rate_hz"),                # position fusion 'auto'
+           (dialect.MSG_ID_EKF_STATUS_REPORT, "ekf_status_rate_hz"))
+ODOMETRY_STREAMS = (dialect.MSG_ID_ATTITUDE, dialect.MSG_ID_LOCAL_POSITION_NED)
 GEO_REFERENCE_RETRY_S = 2.0      # a lat/lon goal: ask for GPS_GLOBAL_ORIGIN and HOME this often
 
 
@@ -71,13 +70,6 @@ def describe_goal(goal) -> str:
 def sidecar_config_path(tlog_path: str | Path) -> Path:
     """Where the effective config of a recorded run is written: FILE.tlog -> FILE.config.yaml."""
     return Path(tlog_path).with_suffix(".config.yaml")
-
-
-def write_json_atomic(path: str | Path, data: dict) -> None:
-    path = Path(path)
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(json.dumps(_clean(data)) + "\n")
-    os.replace(tmp, path)
 
 
 class Service:
@@ -150,8 +142,8 @@ class Service:
             self._odometry_seen.set()
         if isinstance(event, (codec.Attitude, codec.LocalPosition)) and pipeline.vehicle == (
                 event.system_id, event.component_id):
-            self.rates.on_message(codec.MSG_ID_ATTITUDE if isinstance(event, codec.Attitude)
-                                  else codec.MSG_ID_LOCAL_POSITION_NED)
+            self.rates.on_message(dialect.MSG_ID_ATTITUDE if isinstance(event, codec.Attitude)
+                                  else dialect.MSG_ID_LOCAL_POSITION_NED)
         answered = False
         for output in pipeline.handle(t_us / 1e6, event):
             await self._dispatch(output)
@@ -178,7 +170,7 @@ class Service:
             log.info("asking for telemetry streams: %s", output.reason)
             self.streams_wanted.set()
         elif isinstance(output, (NavigatorStarted, Arrived)) and self.report_path:
-            await asyncio.to_thread(write_json_atomic, self.report_path, self.report())
+            await asyncio.to_thread(write_json, self.report_path, self.report(), None)
 
     def _now_us(self) -> int:
         """The service's time: the link's wall clock, or the vehicle's in lock-step (so what the
@@ -295,7 +287,7 @@ class Service:
         while True:
             if self.pipeline.vehicle is not None and self.pipeline.needs_geo_reference:
                 sysid, compid = self.pipeline.vehicle
-                for msg_id in (codec.MSG_ID_GPS_GLOBAL_ORIGIN, codec.MSG_ID_HOME_POSITION):
+                for msg_id in (dialect.MSG_ID_GPS_GLOBAL_ORIGIN, dialect.MSG_ID_HOME_POSITION):
                     self.link.send(codec.request_message(sysid, compid, msg_id))
                 await asyncio.sleep(GEO_REFERENCE_RETRY_S)
             else:        # ask as soon as the vehicle is found (a lock-step flight is quick)
@@ -382,4 +374,4 @@ async def run_service(config: CompanionConfig, url: str, tlog_path: str | Path |
         if tlog is not None:
             tlog.close()
         if service is not None and report_path is not None:
-            write_json_atomic(report_path, service.report())
+            write_json(report_path, service.report(), indent=None)

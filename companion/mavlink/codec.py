@@ -13,30 +13,21 @@ import hashlib
 import hmac
 import math
 import struct
-import os
 import time
 import types
 from dataclasses import dataclass
 
-os.environ.setdefault("MAVLINK20", "1")
-from pymavlink.dialects.v20 import ardupilotmega as mavlink  # noqa: E402
-
-from companion.mavlink.mission_codec import DECODERS as _mission_decoders  # noqa: E402
-from companion.mavlink.mission_codec import GOAL_DECODERS as _goal_decoders  # noqa: E402
-from companion.core.estimation.ekf_slam import Observation  # noqa: E402
+from companion.core.estimation.slam_types import Observation
+from companion.mavlink.dialect import (MSG_ID_ATTITUDE, MSG_ID_EKF_STATUS_REPORT,
+                                       MSG_ID_GLOBAL_POSITION_INT, MSG_ID_GPS_RAW_INT,
+                                       MSG_ID_LOCAL_POSITION_NED, mavlink)
+from companion.mavlink.mission_codec import DECODERS as _mission_decoders
+from companion.mavlink.mission_codec import GOAL_DECODERS as _goal_decoders
 
 MAV_COMP_ID_AUTOPILOT1 = mavlink.MAV_COMP_ID_AUTOPILOT1
 MAV_COMP_ID_ONBOARD_COMPUTER = mavlink.MAV_COMP_ID_ONBOARD_COMPUTER    # 191
 MAV_COMP_ID_MISSIONPLANNER = mavlink.MAV_COMP_ID_MISSIONPLANNER        # 190, the demo's GCS
 NO_OBSTACLE_ID = 65535                                                # UINT16_MAX: "no id"
-MSG_ID_ATTITUDE = mavlink.MAVLINK_MSG_ID_ATTITUDE
-MSG_ID_LOCAL_POSITION_NED = mavlink.MAVLINK_MSG_ID_LOCAL_POSITION_NED
-MSG_ID_GLOBAL_POSITION_INT = mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT
-MSG_ID_EXTENDED_SYS_STATE = mavlink.MAVLINK_MSG_ID_EXTENDED_SYS_STATE
-MSG_ID_HOME_POSITION = mavlink.MAVLINK_MSG_ID_HOME_POSITION
-MSG_ID_GPS_GLOBAL_ORIGIN = mavlink.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN
-MSG_ID_GPS_RAW_INT = mavlink.MAVLINK_MSG_ID_GPS_RAW_INT
-MSG_ID_EKF_STATUS_REPORT = mavlink.MAVLINK_MSG_ID_EKF_STATUS_REPORT
 # SET_POSITION_TARGET_LOCAL_NED.type_mask: ignore position (0x7), acceleration (0x1C0) and yaw
 # rate (0x800); use velocity (vx, vy and vz: ArduCopter flies vz as a climb rate) and yaw.
 VELOCITY_YAW_TYPE_MASK = 0x09C7

@@ -10,13 +10,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from companion.mavlink.codec import mavlink
-
-MSG_ID_SIMSTATE = mavlink.MAVLINK_MSG_ID_SIMSTATE
-MSG_ID_GLOBAL_POSITION_INT = mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT
-MSG_ID_EXTENDED_SYS_STATE = mavlink.MAVLINK_MSG_ID_EXTENDED_SYS_STATE
-MSG_ID_EKF_STATUS_REPORT = mavlink.MAVLINK_MSG_ID_EKF_STATUS_REPORT
-MSG_ID_GPS_GLOBAL_ORIGIN = mavlink.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN
+from companion.mavlink.dialect import mavlink
 
 LANDED_STATE_NAMES = {mavlink.MAV_LANDED_STATE_UNDEFINED: "undefined",
                       mavlink.MAV_LANDED_STATE_ON_GROUND: "on_ground",

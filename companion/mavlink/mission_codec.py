@@ -6,11 +6,9 @@ metres x 1e4 in local frames; z is metres. Mission type 0 (MAV_MISSION_TYPE_MISS
 """
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass
 
-os.environ.setdefault("MAVLINK20", "1")
-from pymavlink.dialects.v20 import ardupilotmega as mavlink  # noqa: E402
+from companion.mavlink.dialect import mavlink
 
 MISSION_TYPE_MISSION = mavlink.MAV_MISSION_TYPE_MISSION
 MISSION_ACCEPTED = mavlink.MAV_MISSION_ACCEPTED

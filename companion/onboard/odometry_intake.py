@@ -12,7 +12,7 @@ import math
 
 from companion.mavlink import codec
 from companion.config.schema import EstimatorConfig
-from companion.core.estimation.ekf_slam import UpdateReport
+from companion.core.estimation.slam_types import UpdateReport
 from companion.core.avoidance.guidance import GuidanceCommand
 from companion.core.navigator import Navigator
 

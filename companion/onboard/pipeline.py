@@ -37,7 +37,7 @@ import numpy as np
 
 from companion.onboard import odometry_intake
 from companion.mavlink import codec
-from companion.config.schema import CompanionConfig, GoalConfig
+from companion.config.schema import PLAUSIBLE_SPEED_MPS, CompanionConfig, GoalConfig
 from companion.core.perception.blobs import BlobParams, sector_observations
 from companion.core.geometry import wrap_angle
 from companion.core.avoidance.guidance import shape_setpoint
@@ -54,8 +54,8 @@ from companion.onboard import fly_to
 
 log = logging.getLogger(__name__)
 
-# Beyond these, a finite value is still nonsense (no multicopter, no stereo camera): refused.
-PLAUSIBLE_SPEED_MPS = 50.0
+# Beyond these, a finite value is still nonsense (no multicopter, no stereo camera): refused
+# (PLAUSIBLE_SPEED_MPS, the config's bound on a multicopter's speed, too).
 PLAUSIBLE_RANGE_M = 1000.0
 PLAUSIBLE_YAW_RATE_RAD_S = 20.0  # ArduCopter's fastest yaw is well under 10 rad/s
 ATTITUDE_HISTORY = 32

@@ -9,7 +9,8 @@ from pathlib import Path
 import numpy as np
 
 
-def _figure():
+def pyplot():
+    """matplotlib.pyplot on the Agg backend (PNG files, no display): the package's one set-up."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -50,7 +51,7 @@ def plot_paths(path: str | Path, *, true_ne: np.ndarray, est_ne: np.ndarray,
                shapes_ne: list[np.ndarray] = ()) -> None:
     """Draw the flight; every array is (k, 2) [north_m, east_m]; ``shapes_ne`` the walls' and
     buildings' outlines (m, 2) each, drawn filled with their safety distance around them."""
-    plt = _figure()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(10, 4.8), dpi=110)
     if len(true_ne):
         ax.plot(true_ne[:, 0], true_ne[:, 1], "b-", lw=1.6, label="true path")

@@ -39,6 +39,7 @@ from pathlib import Path
 import yaml
 
 from companion.tools import ardupilot_sitl as sitl
+from companion.mavlink import dialect
 from companion.mavlink import codec, gcs_codec
 from companion.mavlink.link import open_link
 from companion.tools.child_lifetime import die_with_parent_hook
@@ -52,9 +53,9 @@ from companion.config.paths import resolve_config
 log = logging.getLogger(__name__)
 
 TELEMETRY_RATE_HZ = 10.0
-GCS_STREAMS = (codec.MSG_ID_ATTITUDE, gcs_codec.MSG_ID_SIMSTATE,
-               gcs_codec.MSG_ID_GLOBAL_POSITION_INT, codec.MSG_ID_LOCAL_POSITION_NED,
-               gcs_codec.MSG_ID_EXTENDED_SYS_STATE, gcs_codec.MSG_ID_EKF_STATUS_REPORT)
+GCS_STREAMS = (dialect.MSG_ID_ATTITUDE, dialect.MSG_ID_SIMSTATE,
+               dialect.MSG_ID_GLOBAL_POSITION_INT, dialect.MSG_ID_LOCAL_POSITION_NED,
+               dialect.MSG_ID_EXTENDED_SYS_STATE, dialect.MSG_ID_EKF_STATUS_REPORT)
 # Budgets in the autopilot's seconds (divided by the speedup, plus a wall margin for start-up).
 EKF_BUDGET_S = 120.0          # boot to a GUIDED-capable EKF: about 42 s with this binary
 ARM_BUDGET_S = 60.0           # PreArm refusals after the EKF is ready
@@ -221,7 +222,7 @@ async def fly(gcs: GroundStation, files: AutopilotFiles, scenario: Scenario, spe
         if state.origin_ne_m is None and now - last_origin_request[0] > ORIGIN_REQUEST_S:
             last_origin_request[0] = now
             gcs.link.send(gcs_codec.request_message(sysid, compid,
-                                                    gcs_codec.MSG_ID_GPS_GLOBAL_ORIGIN))
+                                                    dialect.MSG_ID_GPS_GLOBAL_ORIGIN))
         return state.ekf_ready and state.origin_ne_m is not None and state.local is not None
 
     await wait_for(ekf_ready, "the EKF (EKF_STATUS_REPORT, GPS_GLOBAL_ORIGIN)",

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 from pathlib import Path
 from typing import TextIO
 
@@ -18,8 +19,13 @@ def _clean(value):
     return value
 
 
-def write_json(path: str | Path, report: dict) -> None:
-    Path(path).write_text(json.dumps(_clean(report), indent=2) + "\n")
+def write_json(path: str | Path, data: dict, indent: int | None = 2) -> None:
+    """``data`` as JSON (inf and NaN as null), atomically: written beside ``path`` and renamed
+    over it, so a reader (the demo polling the daemon's report) never sees half a file."""
+    path = Path(path)
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(json.dumps(_clean(data), indent=indent) + "\n")
+    os.replace(tmp, path)
 
 
 def _fmt(value, unit: str = "") -> str:

@@ -3,8 +3,9 @@ import math
 
 import pytest
 
+from companion.mavlink import dialect
 from companion.mavlink import codec
-from companion.mavlink.codec import mavlink
+from companion.mavlink.dialect import mavlink
 
 
 def roundtrip(msg, sysid=1, compid=1):
@@ -119,10 +120,10 @@ def test_encoder_advances_the_sequence_and_parser_counts_corruption():
 
 
 def test_command_builders_target_the_vehicle():
-    msg = roundtrip(codec.set_message_interval(3, 1, codec.MSG_ID_ATTITUDE, 10.0))
+    msg = roundtrip(codec.set_message_interval(3, 1, dialect.MSG_ID_ATTITUDE, 10.0))
     assert (msg.target_system, msg.command, msg.param1, msg.param2) == (
         3, mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, 30.0, 100000.0)
-    msg = roundtrip(codec.request_data_stream(3, 1, codec.MSG_ID_LOCAL_POSITION_NED, 10.0))
+    msg = roundtrip(codec.request_data_stream(3, 1, dialect.MSG_ID_LOCAL_POSITION_NED, 10.0))
     assert (msg.req_stream_id, msg.req_message_rate, msg.start_stop) == (
         mavlink.MAV_DATA_STREAM_POSITION, 10, 1)
     msg = roundtrip(codec.set_mode(3, 1, 4))

@@ -4,7 +4,7 @@ import math
 import pytest
 
 from companion.mavlink import codec
-from companion.mavlink.codec import mavlink
+from companion.mavlink.dialect import mavlink
 from tests.adapters.test_codec import roundtrip
 
 

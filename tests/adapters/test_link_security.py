@@ -7,7 +7,7 @@ import socket
 import pytest
 
 from companion.mavlink import codec
-from companion.mavlink.codec import mavlink
+from companion.mavlink.dialect import mavlink
 from companion.mavlink.link import open_link
 
 KEY = bytes(range(32))

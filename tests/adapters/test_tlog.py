@@ -4,7 +4,7 @@ import random
 from pymavlink import mavutil
 
 from companion.mavlink import codec
-from companion.mavlink.codec import mavlink
+from companion.mavlink.dialect import mavlink
 from companion.mavlink.tlog import TlogReader, TlogWriter
 
 T0_US = 1_700_000_000_000_000

@@ -6,7 +6,8 @@ import numpy as np
 
 from companion.config.schema import load_scenario
 from companion.core.estimation.association import associate_frame
-from companion.core.estimation.ekf_slam import EkfSlam, Observation, SlamNoise
+from companion.core.estimation.ekf_slam import EkfSlam
+from companion.core.estimation.slam_types import Observation, SlamNoise
 from companion.sim.simulation import make_navigator
 from companion.core.geometry import observe
 from tests.core.test_lifecycle import navigator, see

@@ -12,10 +12,10 @@ import pytest
 
 from companion.core.avoidance.arc import Motion, VehicleLimits
 from companion.core.avoidance.commitment import Commitment
-from companion.core.avoidance.guidance import GuidanceParams, limit_turn
+from companion.core.avoidance.guidance import GuidanceInputs, GuidanceParams, limit_turn
 from companion.core.avoidance.seen_space import SeenSpace
-from companion.core.avoidance.union import UnionParams, guide_union, turn_speed_factor
-from companion.core.avoidance.velocity_choice import _seen_margin
+from companion.core.avoidance.union import UnionParams, turn_speed_factor
+from companion.core.avoidance.velocity_choice import guide_flyable, _seen_margin
 
 D = 10.0
 LIMITS = VehicleLimits(math.radians(30.0), 2.5)
@@ -36,9 +36,8 @@ def fly(obstacles, start, goal, cruise, union, max_s=200.0, commit=True):
     for _ in range(int(max_s / DT)):
         goal_distance = float(np.hypot(*(goal - pose[:2])))
         reach = commitment.goal_reach_m(goal_distance, D, 40.0) if commit else None
-        command = guide_union(pose, goal, obstacles, None, params(cruise), union, heading,
-                              commitment.side if commit else side, motion=LIMITS.motion(speed, pose[2]),
-                              clear_reach_m=reach)
+        command = guide_flyable(GuidanceInputs(pose, goal, obstacles, None, heading,
+                                               commitment.side if commit else side, motion=LIMITS.motion(speed, pose[2]), clear_reach_m=reach), params(cruise), union)
         if command.mode == "arrived":
             return True, path, closest, rates
         side, heading = command.side, command.heading_rad
@@ -152,11 +151,12 @@ def test_a_hard_turn_at_speed_into_unseen_space_is_not_flyable():
     goal = 300.0 * np.array([math.cos(course + 0.7), math.sin(course + 0.7)])
     post = np.array([[-30.0, -30.0]])                 # behind: the choice runs, nothing blocks
     pose = np.array([0.0, 0.0, course])
-    unseen = guide_union(pose, goal, post, None, params(10.0), union, course, motion=motion)
+    unseen = guide_flyable(GuidanceInputs(pose, goal, post, None, course, motion=motion),
+                                          params(10.0), union)
     assert unseen.heading_rad == pytest.approx(course + 0.7)
     assert unseen.speed_mps == pytest.approx(10.0 * math.cos(0.7))     # the turn at full speed
-    command = guide_union(pose, goal, post, None, params(10.0), union, course, motion=motion,
-                          seen=seen)
+    command = guide_flyable(GuidanceInputs(pose, goal, post, None, course, motion=motion,
+                                           seen=seen), params(10.0), union)
     asked = command.speed_mps / max(turn_speed_factor(course, command.heading_rad,
                                                       union.fov_rad), 1e-9)
     # a gentler turn or a slower one
@@ -170,7 +170,7 @@ def test_a_mover_seen_for_half_a_second_is_flown_around_where_it_goes():
     away from it), is still on probation as a landmark; the guidance flies around it as a mover
     at its apparent velocity, not as a post where it was seen. A static post seen as long is
     not moved."""
-    from companion.core.estimation.ekf_slam import AssociationGates, Observation, SlamNoise
+    from companion.core.estimation.slam_types import AssociationGates, Observation, SlamNoise
     from companion.core.geometry import observe
     from companion.core.navigator import Navigator
     noise = SlamNoise(0.3, math.radians(0.02), 0.1, 0.1, math.radians(0.01))

@@ -8,7 +8,8 @@ from scipy.stats import chi2
 
 from companion.core.estimation.consistency import (ConsistencyMonitor, MonitorParams, chi2_quantile,
                                         radius_2sigma_m)
-from companion.core.estimation.ekf_slam import AssociationGates, EkfSlam, Observation
+from companion.core.estimation.ekf_slam import EkfSlam
+from companion.core.estimation.slam_types import AssociationGates, Observation
 from companion.core.geometry import observe
 from companion.core.navigator import EstimatorOptions, Navigator
 from tests.core.test_ekf_slam import NOISE

@@ -3,7 +3,8 @@ import math
 import numpy as np
 import pytest
 
-from companion.core.estimation.ekf_slam import AssociationGates, EkfSlam, Observation, SlamNoise
+from companion.core.estimation.ekf_slam import EkfSlam
+from companion.core.estimation.slam_types import AssociationGates, Observation, SlamNoise
 from companion.core.geometry import observe
 from tests.core.dense_reference import DenseEkfSlam
 

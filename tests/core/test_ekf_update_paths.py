@@ -9,7 +9,8 @@ import math
 import numpy as np
 import pytest
 
-from companion.core.estimation.ekf_slam import AssociationGates, EkfSlam, Observation, SlamNoise
+from companion.core.estimation.ekf_slam import EkfSlam
+from companion.core.estimation.slam_types import AssociationGates, Observation, SlamNoise
 from companion.core.geometry import wrap_angle
 
 NOISE = SlamNoise(0.3, math.radians(0.02), 0.1, 0.1, math.radians(0.5))

@@ -172,7 +172,7 @@ def _service_flight(goal_look_deg):
     """The pipeline flying north at 5 m/s (tests/service's feed, which does not follow the
     setpoints) toward a post seen 2 m left of the way: the setpoints it sends."""
     from tests.service.test_pipeline import GOAL, Feed, config, hb, setpoints
-    from companion.core.estimation.ekf_slam import Observation
+    from companion.core.estimation.slam_types import Observation
     base = config(require_camera=False)
     cfg = dataclasses.replace(base, avoidance=dataclasses.replace(
         base.avoidance, goal_look_deg=goal_look_deg))

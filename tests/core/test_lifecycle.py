@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from companion.config.schema import load_scenario
-from companion.core.estimation.ekf_slam import Observation
+from companion.core.estimation.slam_types import Observation
 from companion.core.geometry import observe
 from companion.core.estimation.lifecycle import Lifecycle, LifecycleParams, expected_visible
 from companion.sim.simulation import make_navigator

@@ -5,7 +5,7 @@ import math
 import numpy as np
 
 from companion.core.estimation.consistency import chi2_quantile
-from companion.core.estimation.ekf_slam import Observation
+from companion.core.estimation.slam_types import Observation
 from companion.core.geometry import observe
 from companion.core.estimation.motion_evidence import is_straight_track, straight_track_nis
 import dataclasses

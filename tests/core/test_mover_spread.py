@@ -8,7 +8,7 @@ import pytest
 
 from companion.core import navigator as navigator_module
 from companion.core.avoidance.arc import VehicleLimits
-from companion.core.estimation.ekf_slam import AssociationGates, Observation, SlamNoise
+from companion.core.estimation.slam_types import AssociationGates, Observation, SlamNoise
 from companion.core.geometry import observe
 from companion.core.avoidance.guidance import GuidanceParams
 from companion.core.estimation.movers import MoverParams, MoverTracker, mover_spread
@@ -64,12 +64,12 @@ def test_the_velocity_choice_is_given_a_confirmed_tracks_spread(monkeypatch):
     for step in range(1, 31):                        # 3 s with nothing in view
         nav.on_odometry(0.1 * step, 5.0, 0.0)
     seen = {}
-    real = navigator_module.guide_union
+    real = navigator_module.guide_flyable
 
-    def spy(*args, **kwargs):
-        seen["spread"] = args[13] if len(args) > 13 else kwargs.get("spread_m")
-        return real(*args, **kwargs)
-    monkeypatch.setattr(navigator_module, "guide_union", spy)
+    def spy(inputs, *args):
+        seen["spread"] = inputs.spread_m
+        return real(inputs, *args)
+    monkeypatch.setattr(navigator_module, "guide_flyable", spy)
     nav.decide(3.0)
     states = nav.movers.states(nav.clock_s)
     spread = seen["spread"]

@@ -5,9 +5,10 @@ import numpy as np
 import pytest
 
 from companion.config.schema import Obstacle, load_scenario
-from companion.core.estimation.ekf_slam import EkfSlam, Observation
+from companion.core.estimation.ekf_slam import EkfSlam
+from companion.core.estimation.slam_types import Observation
 from companion.core.geometry import observe
-from companion.core.avoidance.guidance import GuidanceParams
+from companion.core.avoidance.guidance import GuidanceInputs, GuidanceParams
 from companion.core.estimation.movers import MoverParams, MoverTracker, apparent_velocity
 from companion.core.avoidance.union import UnionParams, blocking, guide_union
 from companion.sim.simulation import make_navigator, run_once
@@ -67,8 +68,8 @@ def test_relative_velocity_cone_blocks_a_crossing_mover():
                       np.array([[0.0, 3.33]]), 10.0)
     assert not static[0, 0] and moving[0, 0]
     params = GuidanceParams(5.0, 5.0, 4.0, 1.25, 2.0)
-    command = guide_union(np.zeros(3), np.array([200.0, 0.0]), obstacle, None, params,
-                          UnionParams(lookahead_s=10.0), None, 0, np.array([[0.0, 3.33]]))
+    command = guide_union(GuidanceInputs(np.zeros(3), np.array([200.0, 0.0]), obstacle, None,
+                                         None, 0, np.array([[0.0, 3.33]])), params, UnionParams(lookahead_s=10.0))
     assert command.mode == "avoid"
 
 

@@ -7,7 +7,8 @@ import pytest
 from scipy.stats import chi2
 
 from companion.config.schema import StartPose, load_scenario
-from companion.core.estimation.ekf_slam import AssociationGates, EkfSlam, Observation, VelocityNoise
+from companion.core.estimation.ekf_slam import EkfSlam
+from companion.core.estimation.slam_types import AssociationGates, Observation, VelocityNoise
 from companion.core.geometry import move_velocity, move_velocity_jacobians
 from companion.core.navigator import EstimatorOptions, Navigator
 from companion.sim.simulation import make_navigator, pose_nees

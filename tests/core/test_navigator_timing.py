@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from companion.core.estimation.ekf_slam import AssociationGates, Observation, SlamNoise
+from companion.core.estimation.slam_types import AssociationGates, Observation, SlamNoise
 from companion.core.geometry import observe
 from companion.core.avoidance.guidance import GuidanceParams
 from companion.core.navigator import Navigator

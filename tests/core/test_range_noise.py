@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from companion.config.schema import Obstacle, load_config, load_scenario
-from companion.core.estimation.ekf_slam import Observation
+from companion.core.estimation.slam_types import Observation
 from companion.core.estimation.range_noise import stereo_k_per_m, stereo_range_sigma_m, with_range_model
 from companion.errors import ConfigError
 from companion.sim.simulation import make_navigator

@@ -10,7 +10,7 @@ import math
 import numpy as np
 
 from companion.config.schema import load_scenario
-from companion.core.estimation.ekf_slam import Observation
+from companion.core.estimation.slam_types import Observation
 from companion.core.geometry import observe
 from companion.core.estimation.movers import MoverTracker, start_evidence
 from companion.sim.simulation import make_navigator

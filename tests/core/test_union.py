@@ -3,7 +3,7 @@ import math
 import numpy as np
 import pytest
 
-from companion.core.avoidance.guidance import GuidanceParams, guide_cone
+from companion.core.avoidance.guidance import GuidanceInputs, GuidanceParams, guide_cone
 from companion.core.avoidance.union import UnionParams, blocking, guide_union, turn_speed_factor
 
 PARAMS = GuidanceParams(cruise_speed_mps=5.0, safety_distance_m=10.0, horizon_s=4.0, eta=1.25,
@@ -14,7 +14,8 @@ POSE = np.array([0.0, 0.0, 0.0])
 
 
 def test_free_way_flies_at_the_goal():
-    command = guide_union(POSE, GOAL, np.array([[20.0, 40.0]]), None, PARAMS, UNION, None)
+    command = guide_union(GuidanceInputs(POSE, GOAL, np.array([[20.0, 40.0]]), None, None),
+                                         PARAMS, UNION)
     assert command.mode == "goal" and command.heading_rad == pytest.approx(0.0)
     assert command.speed_mps == pytest.approx(5.0)
 
@@ -23,7 +24,7 @@ def test_one_obstacle_head_on_matches_the_paper_deflection():
     # Head-on at 22 m: the paper deflects by eta * asin(d / |X|); the union law leaves the
     # eta-scaled cone at its edge: the same angle, to within the 0.5 degree heading grid.
     obstacle = np.array([[22.0, 0.0]])
-    command = guide_union(POSE, GOAL, obstacle, None, PARAMS, UNION, None)
+    command = guide_union(GuidanceInputs(POSE, GOAL, obstacle, None, None), PARAMS, UNION)
     expected = 1.25 * math.asin(10.0 / 22.0)
     assert command.mode == "avoid" and command.urgent_index == 0
     assert abs(command.heading_rad) == pytest.approx(expected, abs=math.radians(0.6))
@@ -35,7 +36,7 @@ def test_heading_leaves_every_cone_of_an_overlapping_pair():
     # Two obstacles 12 m apart across the path: the paper's law, reacting to one, steers into
     # the gap between them; the union law goes around both.
     obstacles = np.array([[25.0, -6.0], [25.0, 6.0]])
-    command = guide_union(POSE, GOAL, obstacles, None, PARAMS, UNION, None)
+    command = guide_union(GuidanceInputs(POSE, GOAL, obstacles, None, None), PARAMS, UNION)
     blocks = blocking(np.array([command.heading_rad]), POSE[:2], obstacles, np.full(2, 10.0), 1.25, 30.0)
     assert not blocks.any()
     assert abs(command.heading_rad) > math.asin(10.0 / math.hypot(25, 6)) + math.atan2(6, 25)
@@ -46,22 +47,23 @@ def test_heading_leaves_every_cone_of_an_overlapping_pair():
 
 def test_side_commitment_holds_until_the_goal_heading_is_free():
     obstacles = np.array([[25.0, 0.0]])
-    first = guide_union(POSE, GOAL, obstacles, None, PARAMS, UNION, None, side=0)
+    first = guide_union(GuidanceInputs(POSE, GOAL, obstacles, None, None, side=0), PARAMS, UNION)
     assert first.side in (1, -1)
     # Committed to the other side, the vehicle keeps to it even though it costs a larger turn.
-    other = guide_union(POSE, GOAL, obstacles, None, PARAMS, UNION, None, side=-first.side)
+    other = guide_union(GuidanceInputs(POSE, GOAL, obstacles, None, None, side=-first.side),
+                                       PARAMS, UNION)
     assert np.sign(other.heading_rad) == -first.side
 
 
 def test_no_free_heading_slows_then_holds():
     ring = np.array([[12 * math.cos(a), 12 * math.sin(a)] for a in np.linspace(0, 2 * math.pi, 12, endpoint=False)])
-    command = guide_union(POSE, GOAL, ring, None, PARAMS, UNION, None)
+    command = guide_union(GuidanceInputs(POSE, GOAL, ring, None, None), PARAMS, UNION)
     assert command.mode == "hold" and command.speed_mps == 0.0
 
 
 def test_inside_a_circle_only_opening_headings_are_free():
     obstacle = np.array([[5.0, 0.0]])
-    command = guide_union(POSE, GOAL, obstacle, None, PARAMS, UNION, None)
+    command = guide_union(GuidanceInputs(POSE, GOAL, obstacle, None, None), PARAMS, UNION)
     assert abs(command.heading_rad) >= math.pi / 2 - 1e-9
 
 
@@ -73,9 +75,11 @@ def test_sharp_turns_slow_down_and_unseen_headings_turn_in_place():
 
 
 def test_mapped_obstacle_behind_does_not_block_and_far_ones_wait():
-    behind = guide_union(POSE, GOAL, np.array([[-15.0, 0.0]]), None, PARAMS, UNION, None)
+    behind = guide_union(GuidanceInputs(POSE, GOAL, np.array([[-15.0, 0.0]]), None, None), PARAMS,
+                                        UNION)
     assert behind.mode == "goal"
-    far = guide_union(POSE, GOAL, np.array([[60.0, 0.0]]), None, PARAMS, UNION, None)
+    far = guide_union(GuidanceInputs(POSE, GOAL, np.array([[60.0, 0.0]]), None, None), PARAMS,
+                                     UNION)
     assert far.mode == "goal"                 # beyond speed * lookahead: not relevant yet
 
 

@@ -6,9 +6,9 @@ import pytest
 
 from companion.core.avoidance.arc import Motion, clearance, fly_out
 from companion.core.geometry import wrap_angles
-from companion.core.avoidance.guidance import GuidanceParams
+from companion.core.avoidance.guidance import GuidanceInputs, GuidanceParams
 from companion.core.avoidance.union import UnionParams, guide_union, sensed_speed_limit
-from companion.core.avoidance.velocity_choice import gate_headings
+from companion.core.avoidance.velocity_choice import gate_headings, guide_flyable
 
 D = 10.0
 RATE = math.radians(30.0)
@@ -54,10 +54,11 @@ def test_no_turn_demanded_that_the_turn_rate_cannot_fly():
     # heading-only law takes a free heading at nearly full speed, and the arc that reaches it at
     # 30 deg/s cuts a safety circle by 2.6 m; the velocity choice only commands what it can fly.
     obstacles = np.array([[30.0, 6.0], [34.0, -12.0]])
-    heading_only = guide_union(POSE, GOAL, obstacles, None, params(15.0), UNION, None)
+    heading_only = guide_union(GuidanceInputs(POSE, GOAL, obstacles, None, None), params(15.0),
+                                              UNION)
     assert flown_margin(heading_only, flying(15.0), obstacles) < -2.0
-    chosen = guide_union(POSE, GOAL, obstacles, None, params(15.0), UNION, None,
-                         motion=flying(15.0))
+    chosen = guide_flyable(GuidanceInputs(POSE, GOAL, obstacles, None, None, motion=flying(15.0)),
+                                          params(15.0), UNION)
     assert flown_margin(chosen, flying(15.0), obstacles) >= 0.0
     assert chosen.mode != "goal" and chosen.speed_mps < heading_only.speed_mps
 
@@ -65,8 +66,8 @@ def test_no_turn_demanded_that_the_turn_rate_cannot_fly():
 def test_slows_when_the_free_heading_needs_a_tighter_turn():
     # Three posts 21 to 43 m ahead: no arc at 15 m/s clears them by d, one at 3 m/s does.
     obstacles = np.array([[43.0, -7.0], [21.0, -20.0], [23.0, 5.0]])
-    chosen = guide_union(POSE, GOAL, obstacles, None, params(15.0), UNION, None,
-                         motion=flying(15.0))
+    chosen = guide_flyable(GuidanceInputs(POSE, GOAL, obstacles, None, None, motion=flying(15.0)),
+                                          params(15.0), UNION)
     assert chosen.speed_mps < 15.0
     assert flown_margin(chosen, flying(15.0), obstacles) >= 0.0
 
@@ -74,10 +75,11 @@ def test_slows_when_the_free_heading_needs_a_tighter_turn():
 def test_stops_when_nothing_is_free_and_accelerates_back():
     ring = np.array([[14.0 * math.cos(a), 14.0 * math.sin(a)]
                      for a in np.linspace(-math.pi, math.pi, 12, endpoint=False)])
-    boxed = guide_union(POSE, GOAL, ring, None, params(10.0), UNION, None, motion=flying(2.0))
+    boxed = guide_flyable(GuidanceInputs(POSE, GOAL, ring, None, None, motion=flying(2.0)),
+                                         params(10.0), UNION)
     assert boxed.speed_mps == 0.0 and boxed.mode in ("slow", "stop", "hold")
-    free = guide_union(POSE, GOAL, ring + np.array([400.0, 0.0]), None, params(10.0), UNION,
-                       None, motion=flying(0.0))
+    free = guide_flyable(GuidanceInputs(POSE, GOAL, ring + np.array([400.0, 0.0]), None, None,
+                                        motion=flying(0.0)), params(10.0), UNION)
     assert free.mode == "goal" and free.speed_mps == pytest.approx(10.0)
 
 
@@ -85,8 +87,8 @@ def test_never_outruns_the_camera():
     # stops d short of the camera's 40 m range: sqrt(2 * 2.5 * 30) = 12.2 m/s
     assert sensed_speed_limit(40.0, D, 2.5) == pytest.approx(math.sqrt(150.0))
     union = UnionParams(lookahead_s=6.0, fov_rad=math.radians(90), sensor_range_m=40.0)
-    command = guide_union(POSE, GOAL, np.empty((0, 2)), None, params(15.0), union, None,
-                          motion=flying(15.0))
+    command = guide_flyable(GuidanceInputs(POSE, GOAL, np.empty((0, 2)), None, None,
+                                           motion=flying(15.0)), params(15.0), union)
     assert command.speed_mps == pytest.approx(math.sqrt(150.0))
 
 
@@ -107,10 +109,11 @@ def test_a_tracked_crossing_mover_behind_the_camera_is_avoided():
     velocity = (np.array([20.0, 0.0]) - mover[0]) / 4.0
     velocities = velocity[None, :]
     motion = flying(5.0)
-    straight = guide_union(POSE, GOAL, mover, None, params(5.0), UNION, None, motion=motion)
+    straight = guide_flyable(GuidanceInputs(POSE, GOAL, mover, None, None, motion=motion),
+                                            params(5.0), UNION)
     assert flown_margin(straight, motion, mover, velocities) < 0.0        # static: no threat
-    chosen = guide_union(POSE, GOAL, mover, None, params(5.0), UNION, None, velocities=velocities,
-                         motion=motion, growth_mps=np.array([0.3]))
+    chosen = guide_flyable(GuidanceInputs(POSE, GOAL, mover, None, None, velocities=velocities,
+                                          motion=motion, growth_mps=np.array([0.3])), params(5.0), UNION)
     assert chosen.mode != "goal" and chosen.urgent_index == 0
     assert flown_margin(chosen, motion, mover, velocities) >= 0.0
 
@@ -121,8 +124,8 @@ def test_time_to_closest_approach_ranks_the_threats():
     obstacles = np.array([[60.0, 0.0], [90.0, 0.0]])
     velocities = np.array([[0.0, 0.0], [-5.0, 0.0]])
     union = UnionParams(lookahead_s=12.0, fov_rad=math.radians(90))
-    command = guide_union(POSE, GOAL, obstacles, None, params(5.0), union, None, velocities=velocities,
-                          motion=flying(5.0))
+    command = guide_flyable(GuidanceInputs(POSE, GOAL, obstacles, None, None,
+                                           velocities=velocities, motion=flying(5.0)), params(5.0), union)
     assert command.urgent_index == 1
 
 

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from companion.core.avoidance.arc import VehicleLimits
-from companion.core.estimation.ekf_slam import AssociationGates, Observation, SlamNoise
+from companion.core.estimation.slam_types import AssociationGates, Observation, SlamNoise
 from companion.core.geometry import move, observe, wrap_angle
 from companion.core.avoidance.guidance import GuidanceParams, limit_turn
 from companion.core.estimation.movers import MoverParams

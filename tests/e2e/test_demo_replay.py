@@ -12,7 +12,7 @@ import pytest
 
 from companion.__main__ import main
 from companion.mavlink import codec
-from companion.mavlink.codec import mavlink
+from companion.mavlink.dialect import mavlink
 from companion.mavlink.tlog import TlogReader, TlogWriter
 from tests.e2e.support import REPO
 

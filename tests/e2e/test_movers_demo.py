@@ -7,7 +7,7 @@ import json
 import yaml
 from pymavlink import mavutil
 
-from companion.mavlink.codec import mavlink
+from companion.mavlink.dialect import mavlink
 from tests.e2e.support import REPO
 from tests.e2e.test_demo_replay import companion
 

@@ -10,7 +10,7 @@ from companion.mavlink import codec
 from companion.mavlink.mission_codec import GoalRequest
 from companion.config.schema import FlyToConfig
 from companion.onboard.fly_to import judge
-from companion.onboard.goal import LOCATION_SCALING_FACTOR_M
+from companion.core.flat_earth import LOCATION_SCALING_FACTOR_M
 
 ORIGIN = codec.GeoReference(1, 1, "origin", -35.363261, 149.165230, 0.0, 0.0)
 LIMITS = FlyToConfig(max_distance_from_origin_m=1000.0, max_distance_from_vehicle_m=500.0)

@@ -6,7 +6,7 @@ import pytest
 
 from companion.mavlink import codec
 from companion.mavlink import mission_codec as mc
-from companion.onboard.goal import LOCATION_SCALING_FACTOR_M
+from companion.core.flat_earth import LOCATION_SCALING_FACTOR_M
 from companion.onboard.mission_follow import MissionFollower
 
 VEHICLE = (1, 1)

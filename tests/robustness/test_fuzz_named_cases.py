@@ -19,7 +19,7 @@ import time
 import pytest
 
 from companion.mavlink import codec
-from companion.mavlink.codec import mavlink
+from companion.mavlink.dialect import mavlink
 from companion.mavlink.link import open_link
 from tests.robustness.support import check_estimate, check_outputs, clone, fresh_pipeline, rejections
 

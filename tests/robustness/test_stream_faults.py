@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from companion.mavlink import codec
-from companion.mavlink.codec import mavlink
-from companion.core.estimation.ekf_slam import Observation
+from companion.mavlink.dialect import mavlink
+from companion.core.estimation.slam_types import Observation
 from companion.onboard.pipeline import StreamsWanted, snapshot
 from tests.robustness.support import (check_estimate, check_outputs, clone, fresh_pipeline,
                                       rejections)

@@ -6,7 +6,7 @@ import math
 import pytest
 
 from companion.mavlink import codec
-from companion.mavlink.codec import mavlink
+from companion.mavlink.dialect import mavlink
 from companion.onboard.odometry_intake import PositionHealth
 from companion.onboard.pipeline import Pipeline, snapshot
 from tests.adapters.test_codec import roundtrip

@@ -8,7 +8,8 @@ from companion.mavlink import codec
 from companion.config.schema import GoalConfig
 from companion.onboard.flight_phase import (AIRBORNE, LANDED, LANDING, TAKING_OFF, FlightPhase,
                                     FlightPhaseParams, VerticalHold)
-from companion.onboard.goal import LOCATION_SCALING_FACTOR_M, goal_north_east
+from companion.core.flat_earth import LOCATION_SCALING_FACTOR_M
+from companion.onboard.goal import goal_north_east
 from companion.onboard.pipeline import Pipeline
 
 from .test_pipeline import GOAL, Feed, config, hb, setpoints, started

@@ -7,7 +7,7 @@ import math
 import pytest
 
 from companion.mavlink import codec
-from companion.core.estimation.ekf_slam import Observation
+from companion.core.estimation.slam_types import Observation
 from companion.onboard.pipeline import Pipeline, StreamsWanted
 from companion.onboard.safety.gate import SetpointGate, SetpointLimits
 from tests.service.test_pipeline import GOAL, Feed, config, hb, setpoints, started

@@ -11,7 +11,7 @@ import pytest
 from companion.mavlink import codec
 from companion.config.schema import load_config
 from companion.core.avoidance.arc import VehicleLimits
-from companion.core.estimation.ekf_slam import Observation
+from companion.core.estimation.slam_types import Observation
 from companion.core.geometry import wrap_angle
 from companion.core.avoidance.guidance import GuidanceCommand, ShapedSetpoint, shape_setpoint
 from companion.core.avoidance.look_at import LookAtParams, threat_to_watch

@@ -13,11 +13,16 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 
 from companion.core.avoidance.cone import ConeVerdict, check_cone, signed_angle
 from companion.core.geometry import wrap_angle
+
+if TYPE_CHECKING:
+    from companion.core.avoidance.arc import Motion
+    from companion.core.avoidance.seen_space import SeenSpace
 
 
 @dataclass(frozen=True)
@@ -63,6 +68,36 @@ class GuidanceCommand:
     side: int = 0          # union guidance: +1 passing with the goal on the left, -1 right, 0 none
     yaw_rad: float | None = None   # a multicopter's nose apart from its velocity: toward a tracked
                                    # mover it cannot see (core/avoidance/look_at.py); None: along heading_rad
+
+
+@dataclass(frozen=True)
+class GuidanceInputs:
+    """What one decision of the union law (union.guide_union) or the velocity choice
+    (velocity_choice.guide_flyable) is made on, all from the estimate.
+
+    ``pose`` (3,) and ``goal`` (2,); ``obstacles`` (n, 2), their relative-position covariances
+    ``rel_covs`` (n, 2, 2) or None (no inflation) and ``velocities`` (n, 2) or None (all static);
+    ``previous_heading_rad``: the last choice (hysteresis), None before the first; ``side``: the
+    committed side (+1, -1, 0 none). The velocity choice's only: ``motion`` (the vehicle's limits
+    and velocity now, arc.py); ``growth_mps`` (n,): how fast each obstacle's radius grows with
+    time there (a mover's velocity uncertainty); ``clear_reach_m``: the commitment's reach
+    (commitment.py); ``seen``: the space the camera has looked at (seen_space.py); ``spread_m``
+    (n,): how far each obstacle may be from its estimate now (a coasting track's position sigma,
+    a young mover's extrapolation), added to its safety distance (at most union.MAX_SPREAD_M);
+    ``look``: the flank scan's heading for a chosen one (flank_scan.py), or None."""
+    pose: np.ndarray
+    goal: np.ndarray
+    obstacles: np.ndarray
+    rel_covs: np.ndarray | None = None
+    previous_heading_rad: float | None = None
+    side: int = 0
+    velocities: np.ndarray | None = None
+    motion: Motion | None = None
+    growth_mps: np.ndarray | None = None
+    clear_reach_m: float | None = None
+    seen: SeenSpace | None = None
+    spread_m: np.ndarray | None = None
+    look: Callable[[float], float | None] | None = None
 
 
 def inflated_radius(d: float, rel_cov: np.ndarray | None, sigmas: float) -> float:

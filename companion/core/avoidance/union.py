@@ -27,10 +27,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from companion.core.avoidance.arc import MAX_GROWTH_M, Motion
-from companion.core.geometry import wrap_angle, wrap_angles
-from companion.core.avoidance.guidance import (GuidanceCommand, GuidanceParams, approach_speed,
-                                     inflated_radius, toward_goal)
+from companion.core.avoidance.guidance import (GuidanceCommand, GuidanceInputs, GuidanceParams,
+                                               approach_speed, inflated_radius, toward_goal)
+from companion.core.geometry import wrap_angles
 
 CANDIDATES = 720                      # heading grid, 0.5 degree (with movers)
 EDGE_MARGIN_RAD = math.radians(0.25)  # candidates sit this far outside a cone's edge
@@ -134,28 +133,17 @@ def candidate_headings(goal_heading: float, reference: float, g: Geometry,
     return wrap_angles(np.concatenate(parts))
 
 
-def guide_union(pose: np.ndarray, goal: np.ndarray, obstacles: np.ndarray,
-                rel_covs: np.ndarray | None, params: GuidanceParams, union: UnionParams,
-                previous_heading_rad: float | None, side: int = 0,
-                velocities: np.ndarray | None = None, motion: Motion | None = None,
-                growth_mps: np.ndarray | None = None,
-                clear_reach_m: float | None = None, seen=None,
-                spread_m: np.ndarray | None = None, look=None) -> GuidanceCommand:
-    """Pick a speed and heading outside every relevant cone; see the module docstring.
-
-    With ``motion`` (the vehicle's limits and velocity now), the choice is velocity_choice's:
-    only commands whose flown path keeps every safety distance. ``growth_mps`` (n,): how fast
-    each obstacle's radius grows with time there (a mover's velocity uncertainty);
-    ``clear_reach_m``, ``seen``: see velocity_choice.choose_velocity (commitment.py,
-    seen_space.py). ``spread_m`` (n,): how far each obstacle may be from its estimate now (a
-    mover's track out of view: its position's sigma), added to its safety distance there (at
-    most MAX_SPREAD_M). The navigator does not pass it: in cluttered worlds the false tracks
-    that clutter leaves, widened so, lengthened the routes (20 runs: 0.90 against 0.95); it
-    had taken moving seed 43 clear of a track 9 m off."""
-    if motion is not None:
-        return _guide_flyable(pose, goal, obstacles, rel_covs, params, union,
-                              previous_heading_rad, side, velocities, motion, growth_mps,
-                              clear_reach_m, seen, spread_m, look)
+def guide_union(inputs: GuidanceInputs, params: GuidanceParams,
+                union: UnionParams) -> GuidanceCommand:
+    """Pick a speed and heading outside every relevant cone, seen from where the vehicle is; see
+    the module docstring. Headings only: with ``inputs.motion`` (the vehicle's limits) the choice
+    is velocity_choice.guide_flyable's, on paths the vehicle can fly."""
+    if inputs.motion is not None:
+        raise ValueError("guide_union decides headings only: with a motion, "
+                         "velocity_choice.guide_flyable decides")
+    pose, goal, obstacles = inputs.pose, inputs.goal, inputs.obstacles
+    rel_covs, velocities, side = inputs.rel_covs, inputs.velocities, inputs.side
+    previous_heading_rad = inputs.previous_heading_rad
     position = pose[:2]
     goal_distance, goal_heading = toward_goal(pose, goal)
     if goal_distance <= params.goal_radius_m:
@@ -299,49 +287,3 @@ def sensed_speed_limit(sensor_range_m: float, safety_distance_m: float,
     a, t = max_accel_mps2, perception_delay_s
     margin_m = max(sensor_range_m - safety_distance_m, 0.0)
     return -a * t + math.sqrt((a * t) ** 2 + 2.0 * a * margin_m)
-
-
-def _guide_flyable(pose: np.ndarray, goal: np.ndarray, obstacles: np.ndarray,
-                   rel_covs: np.ndarray | None, params: GuidanceParams, union: UnionParams,
-                   previous_heading_rad: float | None, side: int, velocities: np.ndarray | None,
-                   motion: Motion, growth_mps: np.ndarray | None,
-                   clear_reach_m: float | None = None, seen=None,
-                   spread_m: np.ndarray | None = None, look=None) -> GuidanceCommand:
-    from companion.core.avoidance.velocity_choice import choose_velocity, look_flyable
-    goal_distance, goal_heading = toward_goal(pose, goal)
-    if goal_distance <= params.goal_radius_m:
-        return GuidanceCommand(0.0, pose[2], "arrived")
-    cruise = approach_speed(params, goal_distance)
-    if union.sensor_range_m is not None:
-        cruise = min(cruise, sensed_speed_limit(union.sensor_range_m, params.safety_distance_m,
-                                                motion.max_accel_mps2, union.perception_delay_s))
-    reference = pose[2] if previous_heading_rad is None else previous_heading_rad
-    if rel_covs is None or params.inflation_sigmas <= 0.0:
-        radii = np.full(len(obstacles), params.safety_distance_m)
-    else:
-        radii = np.array([inflated_radius(params.safety_distance_m, cov, params.inflation_sigmas)
-                          for cov in rel_covs])
-    if spread_m is not None and len(obstacles):
-        radii = radii + np.minimum(spread_m, MAX_SPREAD_M)
-    gaps = np.hypot(*(obstacles - pose[:2]).T) - radii if len(obstacles) else np.empty(0)
-    speeds = np.zeros(len(obstacles)) if velocities is None else np.hypot(*velocities.T)
-    # what the roll-out can reach: the look-ahead at the faster of now and cruise, then a stop
-    top = max(cruise, motion.speed_mps)
-    reach = top * union.lookahead_s + top * top / (2.0 * motion.max_accel_mps2)
-    grow = np.zeros(len(obstacles)) if growth_mps is None else growth_mps
-    horizon = union.lookahead_s + top / motion.max_accel_mps2
-    near = np.flatnonzero(gaps < reach + speeds * horizon + np.minimum(grow * horizon, MAX_GROWTH_M))
-    if near.size == 0:
-        heading = goal_heading
-        in_view = abs(wrap_angle(goal_heading - pose[2])) <= 0.5 * union.fov_rad
-        swing = None if look is None or not in_view else look(goal_heading)
-        if swing is not None and look_flyable(pose, swing, cruise, params, union, motion, seen):
-            heading = swing
-        return GuidanceCommand(cruise * turn_speed_factor(pose[2], heading, union.fov_rad),
-                               heading, "goal")
-    moving = velocities is not None and bool(np.any(velocities[near]))
-    return choose_velocity(pose, goal_heading, goal_distance, cruise, reference, side,
-                           obstacles[near], radii[near], near, params, union,
-                           velocities[near] if moving else None, motion,
-                           None if growth_mps is None or not moving else growth_mps[near],
-                           clear_reach_m, seen, look)

@@ -23,13 +23,15 @@ from dataclasses import replace
 
 import numpy as np
 
-from companion.core.avoidance.arc import (Motion, Rollout, clearance, fly_out, margins_by_obstacle,
-                                stopping_distance_m)
-from companion.core.geometry import wrap_angles
-from companion.core.avoidance.guidance import GuidanceCommand, GuidanceParams
+from companion.core.avoidance.arc import (MAX_GROWTH_M, Motion, Rollout, clearance, fly_out,
+                                          margins_by_obstacle, stopping_distance_m)
+from companion.core.avoidance.guidance import (GuidanceCommand, GuidanceInputs, GuidanceParams,
+                                               approach_speed, inflated_radius, toward_goal)
 from companion.core.avoidance.seen_space import SeenSpace
-from companion.core.avoidance.union import (Geometry, UnionParams, blocking, candidate_headings,
-                                  turn_speed_factor)
+from companion.core.avoidance.union import (MAX_SPREAD_M, Geometry, UnionParams, blocking,
+                                            candidate_headings, sensed_speed_limit,
+                                            turn_speed_factor)
+from companion.core.geometry import wrap_angle, wrap_angles
 
 SPEED_FRACTIONS = (1.0, 0.75, 0.5, 0.25)
 KEEP_TOLERANCE_M = 0.25    # the previous heading stays reachable down to d minus this: a choice
@@ -37,6 +39,56 @@ KEEP_TOLERANCE_M = 0.25    # the previous heading stays reachable down to d minu
 LOOK_PARTS = (1.0, 0.75, 0.5)  # a flank look's swing, then parts of it (flank_scan.py)
 FIRST_CHUNK = 32           # candidates rolled out before the rest (see _first_passing)
 GRID = np.linspace(-math.pi, math.pi, 72, endpoint=False)     # 5 degrees, beside the cone edges
+
+
+def guide_flyable(inputs: GuidanceInputs, params: GuidanceParams,
+                  union: UnionParams) -> GuidanceCommand:
+    """The union law on paths the vehicle can fly (``inputs.motion``: its limits and velocity
+    now): only commands whose rolled-out path keeps every safety distance (choose_velocity).
+    Cruise is capped so that the vehicle stops d short of the camera's range
+    (union.sensed_speed_limit); only obstacles the roll-out can reach are considered."""
+    pose, goal, obstacles, rel_covs = inputs.pose, inputs.goal, inputs.obstacles, inputs.rel_covs
+    previous_heading_rad, side = inputs.previous_heading_rad, inputs.side
+    velocities = inputs.velocities
+    motion, growth_mps, clear_reach_m = inputs.motion, inputs.growth_mps, inputs.clear_reach_m
+    seen, spread_m, look = inputs.seen, inputs.spread_m, inputs.look
+    goal_distance, goal_heading = toward_goal(pose, goal)
+    if goal_distance <= params.goal_radius_m:
+        return GuidanceCommand(0.0, pose[2], "arrived")
+    cruise = approach_speed(params, goal_distance)
+    if union.sensor_range_m is not None:
+        cruise = min(cruise, sensed_speed_limit(union.sensor_range_m, params.safety_distance_m,
+                                                motion.max_accel_mps2, union.perception_delay_s))
+    reference = pose[2] if previous_heading_rad is None else previous_heading_rad
+    if rel_covs is None or params.inflation_sigmas <= 0.0:
+        radii = np.full(len(obstacles), params.safety_distance_m)
+    else:
+        radii = np.array([inflated_radius(params.safety_distance_m, cov, params.inflation_sigmas)
+                          for cov in rel_covs])
+    if spread_m is not None and len(obstacles):
+        radii = radii + np.minimum(spread_m, MAX_SPREAD_M)
+    gaps = np.hypot(*(obstacles - pose[:2]).T) - radii if len(obstacles) else np.empty(0)
+    speeds = np.zeros(len(obstacles)) if velocities is None else np.hypot(*velocities.T)
+    # what the roll-out can reach: the look-ahead at the faster of now and cruise, then a stop
+    top = max(cruise, motion.speed_mps)
+    reach = top * union.lookahead_s + top * top / (2.0 * motion.max_accel_mps2)
+    grow = np.zeros(len(obstacles)) if growth_mps is None else growth_mps
+    horizon = union.lookahead_s + top / motion.max_accel_mps2
+    near = np.flatnonzero(gaps < reach + speeds * horizon + np.minimum(grow * horizon, MAX_GROWTH_M))
+    if near.size == 0:
+        heading = goal_heading
+        in_view = abs(wrap_angle(goal_heading - pose[2])) <= 0.5 * union.fov_rad
+        swing = None if look is None or not in_view else look(goal_heading)
+        if swing is not None and look_flyable(pose, swing, cruise, params, union, motion, seen):
+            heading = swing
+        return GuidanceCommand(cruise * turn_speed_factor(pose[2], heading, union.fov_rad),
+                               heading, "goal")
+    moving = velocities is not None and bool(np.any(velocities[near]))
+    return choose_velocity(pose, goal_heading, goal_distance, cruise, reference, side,
+                           obstacles[near], radii[near], near, params, union,
+                           velocities[near] if moving else None, motion,
+                           None if growth_mps is None or not moving else growth_mps[near],
+                           clear_reach_m, seen, look)
 
 
 def choose_velocity(pose: np.ndarray, goal_heading: float, goal_distance: float, cruise: float,

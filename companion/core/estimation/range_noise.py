@@ -16,7 +16,7 @@ from __future__ import annotations
 import dataclasses
 from typing import Sequence
 
-from companion.core.estimation.ekf_slam import Observation
+from companion.core.estimation.slam_types import Observation
 
 
 def stereo_range_sigma_m(range_m: float, floor_m: float, k_per_m: float) -> float:

@@ -41,7 +41,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from companion.core.estimation.ekf_slam import Observation
+from companion.core.estimation.slam_types import Observation
 
 
 @dataclass(frozen=True)
