@@ -30,7 +30,7 @@ os.environ.setdefault("MAVLINK20", "1")
 from pymavlink import mavutil  # noqa: E402
 
 from companion.mavlink import codec  # noqa: E402
-from companion.config.schema import load_config  # noqa: E402
+from companion.config.service import load_config  # noqa: E402
 from companion.core.estimation.consistency import radius_2sigma_m  # noqa: E402
 from companion.onboard.pipeline import Pipeline  # noqa: E402
 

@@ -16,7 +16,7 @@ import time
 
 import numpy as np
 
-from companion.config.schema import load_scenario
+from companion.config.scenario import load_scenario
 from companion.sim.simulation import run_once, with_speed
 from companion.sim.worlds import random_world
 

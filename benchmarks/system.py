@@ -41,7 +41,8 @@ import psutil
 
 from benchmarks import probe
 from companion.mavlink.tlog import TlogReader
-from companion.config.schema import config_to_dict, load_config, load_scenario
+from companion.config.scenario import load_scenario
+from companion.config.service import config_to_dict, load_config
 from companion.tools.demo import demo_config
 
 ROOT = Path(__file__).resolve().parent.parent

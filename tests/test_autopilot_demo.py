@@ -12,7 +12,8 @@ from companion.tools import ardupilot_sitl as sitl
 from companion.__main__ import main
 from companion.mavlink.dialect import mavlink
 from companion.tools.autopilot_demo import service_config, sitl_home
-from companion.config.schema import load_config, load_scenario
+from companion.config.scenario import load_scenario
+from companion.config.service import load_config
 from companion.core.flat_earth import to_lat_lon_deg, to_north_east_m
 from companion.tools.flight_record import FlightRecorder, takeoff_checks
 

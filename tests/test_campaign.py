@@ -17,7 +17,7 @@ import pytest
 
 from companion.__main__ import main
 from companion.tools.campaign import chunks, runs_per_task
-from companion.config.schema import load_scenario
+from companion.config.scenario import load_scenario
 from companion.sim.simulation import aggregate, run_once
 
 pytest.importorskip("distributed", reason="the cluster extra is not installed")

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 import yaml
 
-from companion.config.schema import load_scenario
+from companion.config.scenario import load_scenario
 from companion.sim.simulation import run_once
 from tests.e2e.support import REPO
 

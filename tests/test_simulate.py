@@ -166,7 +166,7 @@ def test_random_worlds_keep_the_start_clear_by_the_reaction_and_braking_distance
     31.8 m ahead that the multicopter could neither stop for nor pass at d."""
     import numpy as np
 
-    from companion.config.schema import load_scenario
+    from companion.config.scenario import load_scenario
     from companion.sim.simulation import with_speed
     from companion.sim.worlds import random_world
 
@@ -200,7 +200,7 @@ def test_a_gate_of_2d_plus_2m_is_flown_through():
     (the straight line is 198 m; round the wall about 300 m)."""
     import dataclasses
 
-    from companion.config.schema import load_scenario
+    from companion.config.scenario import load_scenario
     from companion.sim.simulation import run_once
     from companion.sim.worlds import gate_world
     base = load_scenario("config/scenarios/paper.yaml")
@@ -215,7 +215,7 @@ def test_a_gate_of_2d_plus_2m_is_flown_through():
 def test_a_u_trap_is_escaped():
     """A U of posts opening toward the start, across the straight line."""
     report_runs = []
-    from companion.config.schema import load_scenario
+    from companion.config.scenario import load_scenario
     from companion.sim.simulation import run_once
     from companion.sim.worlds import trap_world
     for seed in (0, 1, 2):

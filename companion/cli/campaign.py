@@ -12,7 +12,7 @@ import time
 
 from companion.cli.replay import DEFAULT_CONFIG as REPLAY_CONFIG
 from companion.cli.simulate import DEFAULT_SCENARIO, _positive_int
-from companion.config.schema import load_scenario
+from companion.config.scenario import load_scenario
 from companion.core.navigator import STRATEGIES
 from companion.errors import CompanionError
 from companion.tools.report import _fmt, print_summary, write_json

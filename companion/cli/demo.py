@@ -9,7 +9,7 @@ from pathlib import Path
 
 from companion.cli.autopilot_demo import add_autopilot_arguments, run_autopilot
 from companion.cli.run import run_task_tree
-from companion.config.schema import load_scenario
+from companion.config.scenario import load_scenario
 from companion.errors import CompanionError
 from companion.config.paths import resolve_config
 from companion.tools.report import print_summary, write_json

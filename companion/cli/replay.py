@@ -6,7 +6,7 @@ import dataclasses
 import sys
 from pathlib import Path
 
-from companion.config.schema import load_config
+from companion.config.service import load_config
 from companion.config.paths import resolve_config
 from companion.tools.report import write_json
 

@@ -7,7 +7,7 @@ import dataclasses
 import math
 import sys
 
-from companion.config.schema import CompanionConfig, GoalConfig, load_config
+from companion.config.service import CompanionConfig, GoalConfig, load_config
 from companion.config.loader import MAX_MAGNITUDE, FieldError
 from companion.errors import CompanionError, ConfigError
 from companion.config.paths import resolve_config

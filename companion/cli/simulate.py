@@ -5,7 +5,7 @@ import argparse
 import sys
 
 from companion.errors import CompanionError
-from companion.config.schema import load_scenario
+from companion.config.scenario import load_scenario
 from companion.sim.worlds import WORLD_KINDS, random_world
 
 DEFAULT_SCENARIO = "config/scenarios/paper.yaml"

@@ -33,7 +33,8 @@ from companion.mavlink import dialect
 from companion.mavlink import codec, mission_codec
 from companion.mavlink.link import MavlinkLink, open_link
 from companion.mavlink.tlog import TlogWriter
-from companion.config.schema import CompanionConfig, config_to_dict, read_signing_key
+from companion.config.secrets import read_signing_key
+from companion.config.service import CompanionConfig, config_to_dict
 from companion.errors import ShutdownRequested
 from companion.daemon.lockstep import VehicleLinkClock, lockstep_config
 from companion.onboard.pipeline import Arrived, NavigatorStarted, Pipeline, StreamsWanted, snapshot

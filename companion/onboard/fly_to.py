@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 from companion.mavlink import codec
 from companion.mavlink.mission_codec import GoalRequest
-from companion.config.schema import FlyToConfig
+from companion.config.service import FlyToConfig
 from companion.onboard.goal import goal_north_east
 
 

@@ -12,7 +12,7 @@ import math
 import numpy as np
 
 from companion.mavlink import codec
-from companion.config.schema import MapOutputConfig
+from companion.config.service import MapOutputConfig
 from companion.core.perception.sector_map import scan_map
 
 TIME_EPS_S = 1e-6

@@ -11,7 +11,7 @@ import logging
 import math
 
 from companion.mavlink import codec
-from companion.config.schema import EstimatorConfig
+from companion.config.sections import EstimatorConfig
 from companion.core.estimation.slam_types import UpdateReport
 from companion.core.avoidance.guidance import GuidanceCommand
 from companion.core.navigator import Navigator

@@ -37,7 +37,8 @@ import numpy as np
 
 from companion.onboard import odometry_intake
 from companion.mavlink import codec
-from companion.config.schema import PLAUSIBLE_SPEED_MPS, CompanionConfig, GoalConfig
+from companion.config.checks import PLAUSIBLE_SPEED_MPS
+from companion.config.service import CompanionConfig, GoalConfig
 from companion.core.perception.blobs import BlobParams, sector_observations
 from companion.core.geometry import wrap_angle
 from companion.core.avoidance.guidance import shape_setpoint

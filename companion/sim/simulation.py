@@ -13,7 +13,7 @@ import numpy as np
 from filterpy.stats import NEES
 from scipy.stats import chi2
 
-from companion.config.schema import Scenario
+from companion.config.scenario import Scenario
 from companion.core.perception.blobs import BlobParams, blob_observations
 from companion.core.estimation.consistency import STATES, radius_2sigma_m
 from companion.core.avoidance.arc import VehicleLimits

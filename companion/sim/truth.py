@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from companion.config.schema import Scenario
+from companion.config.scenario import Scenario
 from companion.core.estimation.slam_types import Observation
 from companion.core import shapes
 from companion.core.geometry import is_visible, move, wrap_angle

@@ -13,7 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from companion.config.schema import Building, Goal, Obstacle, Point, Scenario, StartPose, Wall, World
+from companion.config.scenario import Scenario
+from companion.config.world import Building, Goal, Obstacle, Point, StartPose, Wall, World
 from companion.core import shapes
 from companion.core.avoidance.arc import stopping_distance_m
 from companion.sim.simulation import perception_delay_s

@@ -43,7 +43,8 @@ from companion.mavlink import dialect
 from companion.mavlink import codec, gcs_codec
 from companion.mavlink.link import open_link
 from companion.tools.child_lifetime import die_with_parent_hook
-from companion.config.schema import GoalConfig, Scenario, config_to_dict, load_config
+from companion.config.scenario import Scenario
+from companion.config.service import config_to_dict, GoalConfig, load_config
 from companion.core.flat_earth import to_lat_lon_deg
 from companion.tools.demo import (GCS_SYSTEM_ID, Child, DemoError, DemoFiles, demo_config, read_report,
                             read_truth, wait_for)

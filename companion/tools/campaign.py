@@ -23,7 +23,8 @@ from pathlib import Path
 
 import numpy as np
 
-from companion.config.schema import AvoidanceConfig, Scenario
+from companion.config.scenario import Scenario
+from companion.config.sections import AvoidanceConfig
 from companion.config.loader import FieldError
 from companion.core.navigator import STRATEGIES
 from companion.errors import CompanionError
@@ -275,7 +276,7 @@ def summarise_flight(tlog: str | Path, config_path: str | Path) -> dict:
     along the track (square root of the largest eigenvalue of the 2x2 position covariance).
     A file or sidecar config that cannot be read gives a row with ``error`` set, not a failure.
     """
-    from companion.config.schema import load_config
+    from companion.config.service import load_config
     from companion.tools.replay import comparison, replay_tlog
     row = dict.fromkeys(FLIGHT_COLUMNS)
     row["file"] = str(tlog)

@@ -30,8 +30,9 @@ import yaml
 from companion.mavlink import codec
 from companion.mavlink.link import open_link
 from companion.tools.child_lifetime import die_with_parent_hook
-from companion.config.schema import (CompanionConfig, GoalConfig, Scenario, config_to_dict, load_config,
-                              read_signing_key)
+from companion.config.scenario import Scenario
+from companion.config.secrets import read_signing_key
+from companion.config.service import CompanionConfig, config_to_dict, GoalConfig, load_config
 from companion.core import shapes
 from companion.core.geometry import wrap_angle
 from companion.errors import CompanionError

@@ -22,7 +22,7 @@ from pathlib import Path
 
 from companion.mavlink import codec, gcs_codec
 from companion.mavlink.tlog import TlogReader
-from companion.config.schema import Scenario
+from companion.config.scenario import Scenario
 from companion.core.flat_earth import to_north_east_m
 
 log = logging.getLogger(__name__)

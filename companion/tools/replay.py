@@ -25,7 +25,7 @@ import numpy as np
 
 from companion.mavlink import codec
 from companion.mavlink.tlog import TlogReader, TlogStats
-from companion.config.schema import CompanionConfig, config_to_dict
+from companion.config.service import CompanionConfig, config_to_dict
 from companion.onboard.pipeline import Pipeline, snapshot
 
 

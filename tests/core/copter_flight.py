@@ -4,7 +4,7 @@ import dataclasses
 
 import numpy as np
 
-from companion.config.schema import load_scenario
+from companion.config.scenario import load_scenario
 from companion.sim.simulation import make_navigator
 from companion.sim.truth import TruthWorld
 

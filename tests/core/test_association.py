@@ -4,7 +4,7 @@ import math
 
 import numpy as np
 
-from companion.config.schema import load_scenario
+from companion.config.scenario import load_scenario
 from companion.core.estimation.association import associate_frame
 from companion.core.estimation.ekf_slam import EkfSlam
 from companion.core.estimation.slam_types import Observation, SlamNoise

@@ -4,7 +4,8 @@ import math
 import numpy as np
 import pytest
 
-from companion.config.schema import Obstacle, World, StartPose, Goal, load_scenario
+from companion.config.scenario import load_scenario
+from companion.config.world import Goal, Obstacle, StartPose, World
 from companion.core.perception.blobs import BlobParams, blob_observations, group_bins, sector_centres_rad
 from companion.sim.truth import TruthWorld
 

@@ -1,6 +1,6 @@
 import pytest
 
-from companion.config.schema import load_scenario
+from companion.config.scenario import load_scenario
 from companion.errors import ConfigError
 
 PAPER = open("config/scenarios/paper.yaml").read()

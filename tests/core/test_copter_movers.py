@@ -4,7 +4,7 @@ import math
 import numpy as np
 import pytest
 
-from companion.config.schema import Obstacle
+from companion.config.world import Obstacle
 from tests.core.copter_flight import copter_among, fly_north
 
 

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from companion.config.schema import load_scenario
+from companion.config.scenario import load_scenario
 from companion.core.avoidance.arc import VehicleLimits, clearance, fly_out
 from companion.core.avoidance.guidance import GuidanceCommand, shape_setpoint
 from companion.core.avoidance.union import turn_speed_factor

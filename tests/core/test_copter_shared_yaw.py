@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from companion.config.schema import Obstacle
+from companion.config.world import Obstacle
 from companion.core.geometry import wrap_angle
 from companion.core.estimation.motion_evidence import shared_yaw_velocity_cov
 from tests.core.copter_flight import copter_among, fly_north

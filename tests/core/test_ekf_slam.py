@@ -74,7 +74,7 @@ def test_predict_touches_only_vehicle_rows_and_columns():
 
 
 def test_covariance_stays_symmetric_psd_through_a_simulated_run():
-    from companion.config.schema import load_scenario
+    from companion.config.scenario import load_scenario
     from companion.sim.simulation import make_navigator
     from companion.sim.truth import TruthWorld
     scenario = load_scenario("config/scenarios/paper.yaml")

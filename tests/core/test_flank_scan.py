@@ -4,7 +4,8 @@ import math
 
 import numpy as np
 
-from companion.config.schema import Goal, Obstacle, StartPose, load_scenario
+from companion.config.scenario import load_scenario
+from companion.config.world import Goal, Obstacle, StartPose
 from companion.core.avoidance.flank_scan import FlankScan, FlankScanParams
 from companion.sim.simulation import run_once
 

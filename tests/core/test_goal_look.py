@@ -7,7 +7,9 @@ import numpy as np
 import pytest
 
 from companion.sim import simulation
-from companion.config.schema import Goal, Obstacle, StartPose, load_config, load_scenario
+from companion.config.scenario import load_scenario
+from companion.config.service import load_config
+from companion.config.world import Goal, Obstacle, StartPose
 from companion.core.geometry import wrap_angle
 from companion.core.avoidance.look_at import GoalLookParams, goal_look_yaw
 from companion.core.navigator import Navigator

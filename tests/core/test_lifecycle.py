@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from companion.config.schema import load_scenario
+from companion.config.scenario import load_scenario
 from companion.core.estimation.slam_types import Observation
 from companion.core.geometry import observe
 from companion.core.estimation.lifecycle import Lifecycle, LifecycleParams, expected_visible

@@ -10,7 +10,7 @@ from companion.core.geometry import observe
 from companion.core.estimation.motion_evidence import is_straight_track, straight_track_nis
 import dataclasses
 
-from companion.config.schema import load_scenario
+from companion.config.scenario import load_scenario
 from companion.sim.simulation import make_navigator
 
 SIGMA = 0.1

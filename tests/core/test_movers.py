@@ -4,7 +4,8 @@ import math
 import numpy as np
 import pytest
 
-from companion.config.schema import Obstacle, load_scenario
+from companion.config.scenario import load_scenario
+from companion.config.world import Obstacle
 from companion.core.estimation.ekf_slam import EkfSlam
 from companion.core.estimation.slam_types import Observation
 from companion.core.geometry import observe
@@ -200,7 +201,7 @@ def test_mover_test_allows_for_the_course_heading_difference():
 
 
 def test_mover_thresholds_are_config_keys(tmp_path):
-    from companion.config.schema import load_config
+    from companion.config.service import load_config
     from companion.errors import ConfigError
     text = open("config/companion.yaml").read().replace(
         "  slow_factor: 0.5\n", "  slow_factor: 0.5\n  mover_speed_threshold_mps: 0.4\n"

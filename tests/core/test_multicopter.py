@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 from scipy.stats import chi2
 
-from companion.config.schema import StartPose, load_scenario
+from companion.config.scenario import load_scenario
+from companion.config.world import StartPose
 from companion.core.estimation.ekf_slam import EkfSlam
 from companion.core.estimation.slam_types import AssociationGates, Observation, VelocityNoise
 from companion.core.geometry import move_velocity, move_velocity_jacobians

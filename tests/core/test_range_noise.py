@@ -6,7 +6,9 @@ import math
 import numpy as np
 import pytest
 
-from companion.config.schema import Obstacle, load_config, load_scenario
+from companion.config.scenario import load_scenario
+from companion.config.service import load_config
+from companion.config.world import Obstacle
 from companion.core.estimation.slam_types import Observation
 from companion.core.estimation.range_noise import stereo_k_per_m, stereo_range_sigma_m, with_range_model
 from companion.errors import ConfigError

@@ -6,7 +6,8 @@ import math
 import numpy as np
 import pytest
 
-from companion.config.schema import Goal, Obstacle, Point, StartPose, Wall, World, load_scenario
+from companion.config.scenario import load_scenario
+from companion.config.world import Goal, Obstacle, Point, StartPose, Wall, World
 from companion.core.perception.blobs import BlobParams, SurfacePoint, blob_observations
 from companion.core.perception.surface_cover import covering_nis
 from companion.sim.simulation import camera_frame, make_navigator

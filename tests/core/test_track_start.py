@@ -9,7 +9,7 @@ import math
 
 import numpy as np
 
-from companion.config.schema import load_scenario
+from companion.config.scenario import load_scenario
 from companion.core.estimation.slam_types import Observation
 from companion.core.geometry import observe
 from companion.core.estimation.movers import MoverTracker, start_evidence

@@ -94,7 +94,7 @@ def test_two_sightings_of_a_static_post_do_not_make_it_a_mover():
 
 
 def test_young_min_sightings_is_checked():
-    from companion.config.schema import EstimatorConfig
+    from companion.config.sections import EstimatorConfig
     with pytest.raises(ValueError):
         EstimatorConfig(range_sigma_m=0.1, bearing_sigma_deg=0.01, mover_young_min_sightings=1)
     config = EstimatorConfig(range_sigma_m=0.1, bearing_sigma_deg=0.01, mover_young_min_sightings=3)

@@ -20,7 +20,7 @@ os.environ["MAVLINK20"] = "1"
 from pymavlink import mavutil  # noqa: E402
 
 from companion.mavlink.tlog import TlogReader  # noqa: E402
-from companion.config.schema import config_to_dict, load_config  # noqa: E402
+from companion.config.service import config_to_dict, load_config  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[2]
 PAPER = REPO / "config" / "scenarios" / "paper.yaml"

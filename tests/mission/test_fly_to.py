@@ -8,7 +8,7 @@ import pytest
 
 from companion.mavlink import codec
 from companion.mavlink.mission_codec import GoalRequest
-from companion.config.schema import FlyToConfig
+from companion.config.service import FlyToConfig
 from companion.onboard.fly_to import judge
 from companion.core.flat_earth import LOCATION_SCALING_FACTOR_M
 

@@ -12,7 +12,7 @@ os.environ.setdefault("MAVLINK20", "1")
 from pymavlink.dialects.v20 import ardupilotmega as mavlink  # noqa: E402
 
 from companion.mavlink import codec  # noqa: E402
-from companion.config.schema import MapOutputConfig  # noqa: E402
+from companion.config.service import MapOutputConfig  # noqa: E402
 from companion.core.perception.sector_map import scan_map  # noqa: E402
 from companion.onboard.map_output import MapPublisher  # noqa: E402
 

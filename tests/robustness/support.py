@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from companion.mavlink import codec
-from companion.config.schema import load_config
+from companion.config.service import load_config
 from companion.onboard.pipeline import Pipeline
 
 

@@ -70,7 +70,7 @@ def test_in_lockstep_the_notice_limit_runs_on_vehicle_time():
     import asyncio
 
     from companion.mavlink import codec
-    from companion.config.schema import load_config
+    from companion.config.service import load_config
     from companion.daemon.lockstep import VehicleLinkClock
     from companion.daemon.service import Service
 

@@ -1,7 +1,7 @@
 """CompanionConfig: the shipped file loads; mistakes name the file, the key and the problem."""
 import pytest
 
-from companion.config.schema import CompanionConfig, config_to_dict, load_config
+from companion.config.service import CompanionConfig, config_to_dict, load_config
 from companion.errors import ConfigError
 
 SHIPPED = "config/companion.yaml"

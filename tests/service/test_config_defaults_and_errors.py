@@ -7,7 +7,9 @@ import sys
 
 import pytest
 
-from companion.config.schema import AvoidanceConfig, load_config, load_scenario
+from companion.config.scenario import load_scenario
+from companion.config.sections import AvoidanceConfig
+from companion.config.service import load_config
 from companion.config.loader import parse_yaml
 from companion.errors import ConfigError
 

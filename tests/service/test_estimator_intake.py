@@ -137,7 +137,7 @@ def test_an_uncertain_arrival_is_said_once_and_not_declared():
     ("  position_fusion: auto", "estimator.position_fusion: expected one of auto, on, off, got 'unicycle'"),
 ])
 def test_estimator_keys_are_checked_with_file_and_key(tmp_path, line, message):
-    from companion.config.schema import load_config
+    from companion.config.service import load_config
     from companion.errors import ConfigError
     text = open("config/companion.yaml").read()
     key = line.split(":")[0]
@@ -151,7 +151,7 @@ def test_estimator_keys_are_checked_with_file_and_key(tmp_path, line, message):
 
 def test_a_bare_yaml_off_means_position_fusion_off(tmp_path):
     """YAML 1.1 reads a bare `off` as false: the key still means the word."""
-    from companion.config.schema import load_config
+    from companion.config.service import load_config
     path = tmp_path / "c.yaml"
     path.write_text(open("config/companion.yaml").read().replace(
         "  position_fusion: auto", "  position_fusion: off"))
@@ -159,7 +159,9 @@ def test_a_bare_yaml_off_means_position_fusion_off(tmp_path):
 
 
 def test_the_paper_keeps_its_model_and_the_service_defaults_to_the_multicopter():
-    from companion.config.schema import EstimatorConfig, load_config, load_scenario
+    from companion.config.scenario import load_scenario
+    from companion.config.sections import EstimatorConfig
+    from companion.config.service import load_config
     assert load_scenario("config/scenarios/paper.yaml").estimator_config().motion_model == "paper"
     assert load_scenario("config/scenarios/paper.yaml").estimator_config().position_fusion == "off"
     assert load_scenario("config/scenarios/copter.yaml").estimator_config().motion_model \

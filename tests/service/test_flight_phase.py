@@ -5,7 +5,7 @@ import math
 import pytest
 
 from companion.mavlink import codec
-from companion.config.schema import GoalConfig
+from companion.config.service import GoalConfig
 from companion.onboard.flight_phase import (AIRBORNE, LANDED, LANDING, TAKING_OFF, FlightPhase,
                                     FlightPhaseParams, VerticalHold)
 from companion.core.flat_earth import LOCATION_SCALING_FACTOR_M
@@ -196,7 +196,7 @@ def test_goal_command_line_mistakes_are_clear(text, message):
 
 
 def test_goal_config_file_forms(tmp_path):
-    from companion.config.schema import load_config
+    from companion.config.service import load_config
     from companion.errors import ConfigError
     base = open("config/companion.yaml").read()
     good = tmp_path / "geo.yaml"

@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 from companion.mavlink import codec
-from companion.config.schema import load_config
+from companion.config.service import load_config
 from companion.daemon.lockstep import VehicleLinkClock, lockstep_config
 from companion.config.paths import resolve_config
 

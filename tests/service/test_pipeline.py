@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from companion.mavlink import codec
-from companion.config.schema import GoalConfig, load_config
+from companion.config.service import GoalConfig, load_config
 from companion.core.estimation.slam_types import Observation
 from companion.core.avoidance.guidance import GuidanceCommand
 from companion.onboard.pipeline import Arrived, NavigatorStarted, Pipeline, StreamsWanted, snapshot

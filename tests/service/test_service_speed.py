@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from companion.mavlink import codec
-from companion.config.schema import load_config
+from companion.config.service import load_config
 from companion.core.avoidance.arc import VehicleLimits
 from companion.core.estimation.slam_types import Observation
 from companion.core.geometry import wrap_angle

@@ -1,4 +1,4 @@
-"""Walls and buildings in scenario files: both loaders (companion/config/schema.py and the stub's own
+"""Walls and buildings in scenario files: both loaders (companion/config/world.py and the stub's own
 sitl_stub/world.py) read config/scenarios/walls.yaml alike and refuse the same mistakes with
 `file: key: problem`."""
 import math
@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from companion.config.schema import load_scenario
+from companion.config.scenario import load_scenario
 from companion.errors import ConfigError
 from sitl_stub.world import ScenarioError, load_scenario as stub_load_scenario
 from tests.shapes.support import BAD_SHAPES, WALLS

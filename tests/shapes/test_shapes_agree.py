@@ -7,7 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from companion.config.schema import Point, Wall, load_scenario
+from companion.config.scenario import load_scenario
+from companion.config.world import Point, Wall
 from companion.core.perception.blobs import BlobParams, blob_observations
 from companion.core.avoidance.union import blocking
 from companion.sim.truth import TruthWorld

@@ -6,7 +6,8 @@ import math
 import numpy as np
 import pytest
 
-from companion.config.schema import load_config, load_scenario
+from companion.config.scenario import load_scenario
+from companion.config.service import load_config
 from companion.core import shapes
 from companion.sim.plot import offset_outline, plot_run
 from companion.sim.simulation import run_once

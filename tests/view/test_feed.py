@@ -11,7 +11,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from companion.config.schema import load_config
+from companion.config.service import load_config
 from companion.core.avoidance.guidance import GuidanceParams
 from companion.core.avoidance.union import UnionParams
 from companion.errors import ConfigError
