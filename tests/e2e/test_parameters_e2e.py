@@ -186,6 +186,9 @@ def test_a_hostile_ground_station_during_a_flight_changes_nothing_unsafe(tmp_pat
     assert params["refused"]["wrong type"] >= 1 and params["refused"]["out of range"] >= 1
     received = [m for _, m in read_tlog(tlog) if m.get_type() == "PARAM_SET"]
     assert len(received) >= 100                     # the storm reached the companion
+    answered = [m for _, m in read_tlog(tlog) if m.get_type() == "PARAM_VALUE"
+                and m.get_srcComponent() == 191]
+    assert len(answered) >= len(received) // 2     # recorded: the values in force sent back
     setpoints = companion_setpoints(read_tlog(tlog))
     assert setpoints
     stored = result["config"]
