@@ -2,7 +2,7 @@
 
     sitl-stub --scenario PATH [--tcp HOST:PORT|none] [--udp HOST:PORT] [--speedup N] [--seed S]
               [--truth-log PATH] [--drop-rate P] [--sysid N] [--signing-key FILE] [--streams-off]
-              [--lockstep] [--lockstep-timeout-s S]
+              [--lockstep] [--lockstep-timeout-s S] [--route]
     sitl-stub --camera-only --connect URL --scenario PATH [--seed S] [--sysid N]
               [--ekf-origin N,E] [--sectors]     # the camera alone, beside any autopilot
 
@@ -26,7 +26,8 @@ from pathlib import Path
 
 from .autopilot import Autopilot
 from .camera_component import CameraComponent
-from .links import Endpoint, LinkError, LinkHub, open_links, parse_endpoint
+from .links import COMPONENTS, Endpoint, LinkError, LinkHub, open_links, parse_endpoint
+from .routing import Router
 from .lockstep import (DEFAULT_TIMEOUT_S, MSG_ID_ODOMETRY, SAMPLE_IDS, LockstepGate,
                        LockstepOptions, odometry_last)
 from .params import ParamTable
@@ -61,6 +62,7 @@ class Options:
     signing_key: bytes | None
     streams_off: bool
     lockstep: LockstepOptions | None = None
+    route: bool = False
 
 
 class TruthLog:
@@ -116,6 +118,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--signing-key", default=None, help="file with a 32-byte key as 64 hex chars")
     p.add_argument("--streams-off", action="store_true",
                    help="all SRn_* stream rates 0: no telemetry until a client asks")
+    p.add_argument("--route", action="store_true",
+                   help="route MAVLink between clients as ArduPilot does (sitl_stub/routing.py): "
+                        "a ground station reaches the companion's component through the stub")
     p.add_argument("--lockstep", action="store_true",
                    help="step only when the companion's ODOMETRY says it has caught up "
                         "(docs/sitl_stub.md); --speedup paces the free-run fallback")
@@ -164,7 +169,7 @@ def parse_options(argv: list[str] | None) -> Options:
     return Options(scenario=load_scenario(args.scenario), tcp=tcp, udp=udp, speedup=args.speedup,
                    seed=args.seed, truth_log=Path(args.truth_log) if args.truth_log else None,
                    drop_rate=args.drop_rate, sysid=sysid, signing_key=key,
-                   streams_off=args.streams_off, lockstep=lockstep)
+                   streams_off=args.streams_off, lockstep=lockstep, route=args.route)
 
 
 def _read_signing_key(path: str) -> bytes:
@@ -368,8 +373,15 @@ async def run_stub(opts: Options) -> None:
     overflow = [0]
 
     lockstep: Lockstep | None = None
+    router = Router(opts.sysid, COMPONENTS) if opts.route else None
 
     def on_message(name: str, msg) -> None:
+        if router is not None:
+            route = router.route(name, msg)
+            if route.to:
+                hub.forward(msg.get_msgbuf(), route.to)
+            if not route.local:
+                return
         if lockstep is not None and lockstep.holds(name, msg):
             return
         if len(inbox) >= INBOX_LIMIT:
@@ -382,6 +394,8 @@ async def run_stub(opts: Options) -> None:
     hub = LinkHub(opts.tcp, opts.udp, opts.sysid, on_message, drop_rate=opts.drop_rate,
                   seed=opts.seed, signing_key=opts.signing_key)
     ap.on_signing_request = hub.set_signing_key
+    if router is not None:
+        hub.on_client_gone = router.forget
     if opts.lockstep is not None:
         lockstep = Lockstep(opts.lockstep, hub, opts.speedup)
     stop = asyncio.Event()

@@ -54,6 +54,7 @@ class LinkStatistics:
     bad_bytes: int
     unsigned_rejected: int
     backlog_dropped: int
+    forwarded: int = 0
 
 
 @dataclass(frozen=True)
@@ -157,12 +158,13 @@ class LinkHub:
         self.tcp_address: tuple[str, int] | None = None
         self.udp_address: tuple[str, int] | None = None
         self._n = dict(received=0, sent=0, dropped_in=0, dropped_out=0, bad_data=0, bad_bytes=0,
-                       unsigned_rejected=0, backlog_dropped=0)
+                       unsigned_rejected=0, backlog_dropped=0, forwarded=0)
         self._last_bad_warning_s = 0.0
         self.on_delivered: Callable[[str, object], None] | None = None
         self.delivered_ids: frozenset[int] | None = None   # on_delivered for these only (None: all)
         self.on_odometry: Callable[[str, object], None] | None = None
         self.on_client: Callable[[str], None] | None = None
+        self.on_client_gone: Callable[[str], None] | None = None
 
     # ------------------------------------------------------------------ lifecycle
     async def start(self) -> None:
@@ -283,6 +285,26 @@ class LinkHub:
                     if wanted is None or msg.id in wanted:
                         delivered(name, msg)
 
+    def forward(self, packet: bytes, names: tuple[str, ...]) -> None:
+        """A received packet, as it came, to the clients named (routing.py: ``--route``)."""
+        for addr, client in list(self._udp_clients.items()):
+            if client.name in names and self._udp_transport is not None:
+                if self._drop():
+                    self._n["dropped_out"] += 1
+                    continue
+                self._udp_transport.sendto(packet, addr)
+                self._n["forwarded"] += 1
+        for name, (_, writer) in list(self._tcp_clients.items()):
+            if name in names and not writer.is_closing():
+                if self._drop():
+                    self._n["dropped_out"] += 1
+                    continue
+                if writer.transport.get_write_buffer_size() > MAX_TCP_BACKLOG_BYTES:
+                    self._n["backlog_dropped"] += 1
+                    continue
+                writer.write(packet)
+                self._n["forwarded"] += 1
+
     # ------------------------------------------------------------------ receiving
     def _drop(self) -> bool:
         return self._drop_rate > 0.0 and self._rng.random() < self._drop_rate
@@ -347,6 +369,8 @@ class LinkHub:
             log.info("client %s: %s", name, exc)
         finally:
             self._tcp_clients.pop(name, None)
+            if self.on_client_gone is not None:
+                self.on_client_gone(name)
             writer.close()
             log.info("client disconnected: %s", name)
             if task is not None:

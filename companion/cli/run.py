@@ -39,6 +39,10 @@ def add_parser(sub) -> None:
     p.add_argument("--lockstep", action="store_true",
                    help="against `sitl-stub --lockstep`: one ODOMETRY per odometry sample, and "
                         "the vehicle's clock for heartbeats, timeouts and the tlog")
+    p.add_argument("--param-overlay", metavar="PATH",
+                   help="where parameters set from a ground station (PARAM_SET) are kept and read "
+                        "back at start (default: CONFIG.params.yaml beside --config; 'none': "
+                        "not kept)")
     p.add_argument("--view-feed", metavar="HOST:PORT",
                    help="send the live state to `companion view --source udp:HOST:PORT` "
                         "(UDP, 10 Hz; nothing waits for the view)")
@@ -98,13 +102,20 @@ def effective_config(args: argparse.Namespace) -> CompanionConfig:
 
 
 def run(args: argparse.Namespace) -> int:
+    from companion.daemon.param_overlay import apply_overlay, overlay_path
     from companion.daemon.service import run_service
     from companion.view.feed import parse_address
     config = effective_config(args)
+    overlay = None
+    where = getattr(args, "param_overlay", None)
+    if where is None or where.lower() != "none":
+        config, overlay = apply_overlay(
+            config, where if where is not None else overlay_path(resolve_config(args.config)))
     view_feed = parse_address(args.view_feed, "--view-feed") if args.view_feed else None
     try:
         run_task_tree(run_service(config, args.connect, args.tlog, args.report,
-                                  lockstep=args.lockstep, view_feed=view_feed))
+                                  lockstep=args.lockstep, view_feed=view_feed,
+                                  overlay=overlay))
     except CompanionError as exc:
         print(f"companion: {exc}", file=sys.stderr)
         return 2

@@ -35,6 +35,10 @@ class LinkConfig:
     reconnect_interval_s: float = 1.0
     inbox_size: int = 1000
     signing_key_file: str | None = None       # MAVLink 2 signing: file with the key, 64 hex chars
+    # SYS_STATUS with the obstacle-avoidance bit (companion/onboard/health.py). false: none, for a
+    # ground station that reads a non-autopilot's SYS_STATUS as the vehicle's (docs/messages.md,
+    # "Identity and health": MAVProxy aimed at component 191 says "fence breach").
+    sys_status: bool = True
 
     def __post_init__(self) -> None:
         for key in ("component_id", "camera_component_id"):

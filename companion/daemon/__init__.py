@@ -1,1 +1,2 @@
-"""The asyncio shell of ``companion run``: link, tlog, timers and the pipeline in one task tree."""
+"""The asyncio shell of ``companion run``: link, tlog, timers and the pipeline in one task tree;
+the parameter overlay file (param_overlay.py)."""

@@ -7,11 +7,13 @@ sending. Tasks, one job each:
 
   receive    the link's transport (TCP reconnects)
   estimate   inbox -> tlog -> codec -> pipeline -> send
-  heartbeat  our HEARTBEAT at link.heartbeat_rate_hz
+  heartbeat  our HEARTBEAT (and SYS_STATUS) at link.heartbeat_rate_hz, the state from
+             companion/onboard/health.py, a STATUSTEXT when it changes
   watchdog   logs vehicle-heartbeat loss; asks for streams again when odometry stays away or
              arrives slower than asked (bounded); reports suppressed STATUSTEXTs
   streams    SET_MESSAGE_INTERVAL (acked, retried), else REQUEST_DATA_STREAM
   tlog       flush twice a second
+  parameters write the parameter overlay after accepted PARAM_SETs (companion/daemon/param_overlay.py)
   stop       SIGINT/SIGTERM -> one stop setpoint if commanding -> ShutdownRequested
 
 With ``lockstep`` (``companion run --lockstep``, against ``sitl-stub --lockstep``) the stamps given
@@ -30,13 +32,16 @@ from pathlib import Path
 import yaml
 
 from companion.mavlink import dialect
-from companion.mavlink import codec, mission_codec
+from companion.mavlink import codec, mission_codec, param_codec
 from companion.mavlink.link import MavlinkLink, open_link
 from companion.mavlink.tlog import TlogWriter
 from companion.config.secrets import read_signing_key
 from companion.config.service import CompanionConfig, config_to_dict
+from companion.daemon.param_overlay import Overlay, write_overlay
 from companion.errors import ShutdownRequested
 from companion.daemon.lockstep import VehicleLinkClock, lockstep_config
+from companion.onboard import health
+from companion.onboard.parameters import ParamChange, ParamValue
 from companion.onboard.pipeline import Arrived, NavigatorStarted, Pipeline, StreamsWanted, snapshot
 from companion.tools.report import write_json
 from companion.onboard.safety.notices import NoticeLimiter
@@ -78,8 +83,11 @@ class Service:
 
     def __init__(self, config: CompanionConfig, link: MavlinkLink, tlog: TlogWriter | None,
                  report_path: str | Path | None, clock: VehicleLinkClock | None = None,
-                 keep_track: bool = False) -> None:
+                 keep_track: bool = False, overlay: Overlay | None = None) -> None:
         self.config = config
+        self.overlay = overlay
+        self.health: health.Health | None = None
+        self.overlay_dirty = asyncio.Event()
         self.clock = clock
         self.link = link
         self.tlog = tlog
@@ -135,7 +143,7 @@ class Service:
         if self.tlog is not None:
             self.tlog.write(t_us, bytes(received.msg.get_msgbuf()))
         if self.clock is not None and self.clock.heartbeat_due():
-            link.send(codec.heartbeat())
+            self._send_identity()
         if isinstance(event, codec.CommandAck) and pipeline.vehicle == (
                 event.system_id, event.component_id) and not self.acks.full():
             self.acks.put_nowait(event)
@@ -170,8 +178,49 @@ class Service:
         elif isinstance(output, StreamsWanted):
             log.info("asking for telemetry streams: %s", output.reason)
             self.streams_wanted.set()
+        elif isinstance(output, ParamValue):
+            link.send(param_codec.param_value(output))
+        elif isinstance(output, ParamChange):
+            self._persist(output)
         elif isinstance(output, (NavigatorStarted, Arrived)) and self.report_path:
             await asyncio.to_thread(write_json, self.report_path, self.report(), None)
+
+    def _persist(self, change: ParamChange) -> None:
+        """An accepted PARAM_SET into the overlay (companion/daemon/param_overlay.py): in memory now,
+        on disk by save_parameters (a storm of sets is one write, not one fsync each)."""
+        if self.overlay is None:
+            return
+        self.overlay.values[change.key] = change.new
+        self.overlay_dirty.set()
+
+    async def save_parameters(self) -> None:
+        """Write the overlay after accepted sets, off the event loop, one write at a time."""
+        while True:
+            await self.overlay_dirty.wait()
+            self.overlay_dirty.clear()
+            await asyncio.to_thread(self._write_overlay)
+
+    def _write_overlay(self) -> None:
+        try:
+            write_overlay(self.overlay.path, dict(self.overlay.values))
+        except OSError as exc:
+            log.error("parameters not saved to %s: %s", self.overlay.path, exc)
+
+    def _send_identity(self) -> None:
+        """HEARTBEAT and SYS_STATUS as companion/onboard/health.py judges the state; a STATUSTEXT when
+        the judgement changes."""
+        judged = health.assess(self.pipeline.health_inputs(self._now_us() / 1e6))
+        self.link.send(codec.heartbeat(judged.system_status))
+        if self.config.link.sys_status:
+            self.link.send(codec.sys_status(judged.avoidance_enabled, judged.avoidance_healthy))
+        before, self.health = self.health, judged
+        if before is not None and (before.state, before.avoidance_healthy) != \
+                (judged.state, judged.avoidance_healthy):
+            log.info("health: %s (%s), avoidance %s", judged.state, judged.reason,
+                     "healthy" if judged.avoidance_healthy else "unhealthy")
+            severity = codec.SEVERITY_WARNING if judged.state == "critical" \
+                or not judged.avoidance_healthy else codec.SEVERITY_INFO
+            self._send_notice(codec.Notice(severity, judged.describe()))
 
     def _now_us(self) -> int:
         """The service's time: the link's wall clock, or the vehicle's in lock-step (so what the
@@ -202,7 +251,7 @@ class Service:
         period_s = 1.0 / self.config.link.heartbeat_rate_hz
         while True:
             if self.clock is None or not self.clock.started:   # lock-step: see estimate()
-                self.link.send(codec.heartbeat())
+                self._send_identity()
             await asyncio.sleep(period_s)
 
     async def watch(self) -> None:
@@ -316,15 +365,21 @@ class Service:
         data["statustext_suppressed"] = self.notices.suppressed
         data["stream_reasserts"] = self.rates.reasserts
         data["setpoints_refused"] = dict(self.pipeline.gate.refused)
-        data["config"] = config_to_dict(self.config)
+        data["config"] = config_to_dict(self.pipeline.config)
+        if self.overlay is not None:
+            data["parameter_overlay"] = {"path": str(self.overlay.path),
+                                         "values": dict(self.overlay.values),
+                                         "error": self.overlay.error}
         return data
 
 
 async def run_service(config: CompanionConfig, url: str, tlog_path: str | Path | None = None,
                       report_path: str | Path | None = None, lockstep: bool = False,
-                      view_feed: tuple[str, int] | None = None) -> None:
+                      view_feed: tuple[str, int] | None = None,
+                      overlay: Overlay | None = None) -> None:
     """Run the daemon until SIGINT/SIGTERM. ``config.goal`` must be set. ``view_feed``:
-    (host, port) to send the live view's state to (companion/view/feed.py)."""
+    (host, port) to send the live view's state to (companion/view/feed.py). ``overlay``: where
+    parameters set from a ground station are kept (companion/daemon/param_overlay.py; None: not kept)."""
     loop = asyncio.get_running_loop()
     clock = None
     if lockstep:
@@ -343,13 +398,17 @@ async def run_service(config: CompanionConfig, url: str, tlog_path: str | Path |
     try:
         async with open_link(url, encoder, config.link.inbox_size,
                              config.link.reconnect_interval_s, signing_key) as link:
-            service = Service(config, link, tlog, report_path, clock, view_feed is not None)
+            service = Service(config, link, tlog, report_path, clock, view_feed is not None,
+                              overlay)
             for sig in (signal.SIGINT, signal.SIGTERM):
                 loop.add_signal_handler(sig, service.stop.set)
             log.info("companion up on %s%s: goal %s", url,
                      f" (local {link.local_address[0]}:{link.local_address[1]})"
                      if link.local_address else "", describe_goal(config.goal))
             log.info("effective config: %s", config_to_dict(config))
+            if overlay is not None and overlay.error is not None:
+                service._send_notice(codec.Notice(codec.SEVERITY_ERROR,
+                                                  "companion: parameter overlay ignored"))
             if signing_key is not None:
                 log.info("MAVLink 2 signing on (key from %s): unsigned traffic refused",
                          config.link.signing_key_file)
@@ -364,6 +423,8 @@ async def run_service(config: CompanionConfig, url: str, tlog_path: str | Path |
                         tg.create_task(service.ask_geo_reference(), name="geo-reference")
                     if tlog is not None:
                         tg.create_task(service.flush_tlog(), name="tlog")
+                    if overlay is not None:
+                        tg.create_task(service.save_parameters(), name="parameters")
                     if view_feed is not None:
                         tg.create_task(feed.publish(service.pipeline, view_feed), name="view-feed")
                     tg.create_task(service.raise_on_stop(), name="stop")
@@ -374,5 +435,7 @@ async def run_service(config: CompanionConfig, url: str, tlog_path: str | Path |
             loop.remove_signal_handler(sig)
         if tlog is not None:
             tlog.close()
+        if service is not None and service.overlay_dirty.is_set():
+            service._write_overlay()          # sets accepted just before the shutdown
         if service is not None and report_path is not None:
             write_json(report_path, service.report(), indent=None)

@@ -23,6 +23,7 @@ from companion.mavlink.dialect import (MSG_ID_ATTITUDE, MSG_ID_EKF_STATUS_REPORT
                                        MSG_ID_LOCAL_POSITION_NED, mavlink)
 from companion.mavlink.mission_codec import DECODERS as _mission_decoders
 from companion.mavlink.mission_codec import GOAL_DECODERS as _goal_decoders
+from companion.mavlink.param_codec import DECODERS as _param_decoders
 
 MAV_COMP_ID_AUTOPILOT1 = mavlink.MAV_COMP_ID_AUTOPILOT1
 MAV_COMP_ID_ONBOARD_COMPUTER = mavlink.MAV_COMP_ID_ONBOARD_COMPUTER    # 191
@@ -360,6 +361,7 @@ _DECODERS = {
 }
 _DECODERS.update(_mission_decoders)
 _DECODERS.update(_goal_decoders)
+_DECODERS.update(_param_decoders)
 
 
 # ------------------------------------------------------------------ outbound intents
@@ -455,11 +457,20 @@ def ms_of(t_s: float) -> int:
     return int(round(t_s * 1000.0)) & 0xFFFFFFFF
 
 
-def heartbeat() -> mavlink.MAVLink_heartbeat_message:
-    """Our HEARTBEAT: an onboard controller, not an autopilot."""
+def heartbeat(system_status: int = mavlink.MAV_STATE_ACTIVE) -> mavlink.MAVLink_heartbeat_message:
+    """Our HEARTBEAT: an onboard controller, not an autopilot; system_status a MAV_STATE
+    (companion/onboard/health.py: standby, active, critical)."""
     return mavlink.MAVLink_heartbeat_message(
         mavlink.MAV_TYPE_ONBOARD_CONTROLLER, mavlink.MAV_AUTOPILOT_INVALID, 0, 0,
-        mavlink.MAV_STATE_ACTIVE, 3)
+        system_status, 3)
+
+
+def sys_status(enabled: bool, healthy: bool) -> mavlink.MAVLink_sys_status_message:
+    """Our SYS_STATUS: only MAV_SYS_STATUS_OBSTACLE_AVOIDANCE, present, enabled and healthy as
+    companion/onboard/health.py judges; no battery (voltage UINT16_MAX, current and remaining -1)."""
+    bit = mavlink.MAV_SYS_STATUS_OBSTACLE_AVOIDANCE
+    return mavlink.MAVLink_sys_status_message(
+        bit, bit if enabled else 0, bit if healthy else 0, 0, 0xFFFF, -1, -1, 0, 0, 0, 0, 0, 0)
 
 
 def gcs_heartbeat() -> mavlink.MAVLink_heartbeat_message:

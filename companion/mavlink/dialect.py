@@ -1,7 +1,7 @@
 """The MAVLink dialect every module here speaks, set up once, and the message ids named once.
 
 MAVLink 2 (``MAVLINK20`` before pymavlink loads), ArduPilot's ``ardupilotmega`` dialect. The
-codecs (codec.py, mission_codec.py, gcs_codec.py) take ``mavlink`` and the ids from here.
+codecs (codec.py, mission_codec.py, param_codec.py, gcs_codec.py) take ``mavlink`` and the ids from here.
 """
 from __future__ import annotations
 

@@ -23,6 +23,8 @@ Rules (docs/messages.md repeats them):
   flight phase (companion/onboard/flight_phase.py) is airborne; they hold an altitude (vz term).
 - A goal given as latitude/longitude waits for the EKF origin (or HOME) to become metres.
 - Stale camera or an unhealthy filter: the configured safe action (hold: velocity 0, current yaw).
+- PARAM_* from a ground station (companion/onboard/parameters.py): answered at once; a live set changes
+  the config at the next message boundary with no camera frame in assembly, never mid-decision.
 """
 from __future__ import annotations
 
@@ -52,6 +54,8 @@ from companion.onboard.map_output import MapPublisher
 from companion.mavlink import mission_codec
 from companion.onboard.mission_follow import MissionFollower
 from companion.onboard import fly_to
+from companion.onboard.health import HealthInputs
+from companion.onboard.parameters import ParamChange, ParamRequest, ParamServer, ParamValue
 
 log = logging.getLogger(__name__)
 
@@ -84,7 +88,7 @@ MISSION_EVENTS = (mission_codec.MissionCount, mission_codec.MissionItem, mission
 
 Output = codec.VelocitySetpoint | codec.PoseEstimate | codec.Notice | codec.MoverReport \
     | codec.SectorMap | mission_codec.MissionRequest | StreamsWanted \
-    | NavigatorStarted | Arrived
+    | NavigatorStarted | Arrived | ParamValue | ParamChange
 
 
 @dataclass(frozen=True)
@@ -183,6 +187,9 @@ class Pipeline:
         # The camera frame being assembled: one OBSTACLE_DISTANCE_3D per obstacle, all with the
         # frame's time, are one chance for the landmark lifecycle, not one each.
         self._frame: _FrameAssembly | None = None
+        # The parameter protocol (companion/onboard/parameters.py): a live set waits here for a safe point.
+        self.params = ParamServer(config, require_signed=link.signing_key_file is not None)
+        self._pending_config: CompanionConfig | None = None
 
     # ------------------------------------------------------------ entry point
     def handle(self, t_link_s: float, event: codec.Event | None) -> list[Output]:
@@ -191,8 +198,13 @@ class Pipeline:
         self._check_heartbeat_age(t_link_s)
         if event is None:
             return out
+        if isinstance(event, ParamRequest):       # not flight data: a camera frame stays whole
+            self._on_param(t_link_s, event, out)
+            return out
         if self._frame is not None and not self._frame.continued_by(event):
             self._flush_frame(out)
+        if self._pending_config is not None and self._frame is None:
+            self._apply_config()                  # the safe point: no decision under way
         if isinstance(event, codec.Heartbeat):
             self._on_heartbeat(t_link_s, event, out)
         elif isinstance(event, mission_codec.GoalRequest):
@@ -220,6 +232,53 @@ class Pipeline:
         elif self._is_vehicle(event):
             self._on_flight_data(event)
         return out
+
+    # ------------------------------------------------------------ parameters
+    def _on_param(self, t_link_s: float, request: ParamRequest, out: list[Output]) -> None:
+        """A ground station's PARAM_* (companion/onboard/parameters.py); a live set is queued for the
+        next safe point (handle(): between messages, no camera frame in assembly)."""
+        our_system = self.config.link.system_id or (self.vehicle[0] if self.vehicle else 1)
+        outcome = self.params.handle(request, our_system, self.config.link.component_id,
+                                     self.clock.latest_t_s if self.clock.latest_t_s is not None
+                                     else t_link_s)
+        out.extend(outcome.replies)
+        for notice in outcome.notices:
+            warn = notice.severity == "warning"
+            if warn:
+                self._count("param_refused")
+                log.warning("PARAM_%s from %d/%d: %s", request.kind.upper(), request.system_id,
+                            request.component_id, self.params.last_refusal)
+            out.append(codec.Notice(codec.SEVERITY_WARNING if warn else codec.SEVERITY_INFO,
+                                    notice.text))
+        change = outcome.change
+        if change is not None:
+            log.info("parameter %s (%s) %r -> %r from %d/%d: %s", change.name, change.key,
+                     change.old, change.new, *change.source,
+                     "live at the next safe point" if change.live else "at the next start")
+            if change.config is not None:
+                self._pending_config = change.config
+            out.append(change)
+
+    def _apply_config(self) -> None:
+        """The running config after a live parameter set; the navigator's guidance follows."""
+        self.config, self._pending_config = self._pending_config, None
+        if self.navigator is not None:
+            self.navigator.params = self.config.guidance_params(self.navigator.params.goal_radius_m)
+        self._count("param_applied")
+
+    def health_inputs(self, t_link_s: float) -> HealthInputs:
+        """What companion/onboard/health.py judges the HEARTBEAT and SYS_STATUS from."""
+        t_s = self.clock.latest_t_s
+        commanding = self.commanding_allowed(t_link_s) and t_s is not None \
+            and self.phase.decide(t_s).may_command
+        nav = self.navigator
+        return HealthInputs(
+            vehicle_found=self.vehicle is not None, link_lost=self._link_lost,
+            commanding=commanding, safe_reason=self._safe_reason,
+            deciding=nav is not None and self.goal_ne is not None,
+            camera_live=t_s is not None and not self.liveness.camera_stale(t_s),
+            estimator_state=nav.health.state if nav is not None and nav.health is not None
+            else None)
 
     def _on_flight_data(self, event) -> None:
         """Flight phase inputs and the goal's geographic reference."""
@@ -794,5 +853,6 @@ def snapshot(pipeline: Pipeline) -> dict:
         "counters": dict(pipeline.counters),
         "rejected_by_estimator": dict(nav.rejected) if nav is not None else {},
         "mission": pipeline.mission.summary() if pipeline.mission is not None else None,
+        "parameters": pipeline.params.summary(),
         **odometry_intake.snapshot(nav),
     }
