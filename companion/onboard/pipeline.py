@@ -80,7 +80,8 @@ class Arrived:
 
 
 MISSION_EVENTS = (mission_codec.MissionCount, mission_codec.MissionItem, mission_codec.MissionAck,
-                  mission_codec.MissionCurrent, mission_codec.MissionItemReached)
+                  mission_codec.MissionCurrent, mission_codec.MissionItemReached,
+                  mission_codec.MissionRequestSeen)
 
 Output = codec.VelocitySetpoint | codec.PoseEstimate | codec.Notice | codec.MoverReport \
     | codec.SectorMap | mission_codec.MissionRequest | StreamsWanted \
@@ -172,7 +173,8 @@ class Pipeline:
             (goal.north_m, goal.east_m) if goal is not None and not goal.is_geographic
             and not goal.mission else None)
         self.goal_radius_m = goal.radius_m if goal is not None else 1.0
-        self.mission = MissionFollower(config.link.component_id, goal.radius_m) \
+        self.mission = MissionFollower(config.link.component_id, goal.radius_m,
+                                       recheck_s=goal.mission_recheck_s) \
             if goal is not None and goal.mission else None
         self._goal_reference: str | None = None
         self.last_command = None        # (t_s, GuidanceCommand) of the latest decision: the view
