@@ -39,8 +39,8 @@ GUIDED = 4
 TAKEOFF_ALT_M = 10.0
 ALT_REACHED_M = TAKEOFF_ALT_M - 0.5     # "at take-off altitude": within 0.5 m
 # North/east metres in the paper scenario (start 20, 0; posts at 60, 5 and 120, 0)
-MISSION_A = [(70.0, 15.0), (120.0, 15.0), (150.0, 0.0)]
-MISSION_B = [(100.0, -15.0), (140.0, -15.0), (170.0, 0.0)]     # the re-upload
+MISSION_A = [(90.0, 0.0), (150.0, 0.0), (150.0, 25.0)]       # past post 1, through post 2
+MISSION_B = [(110.0, 20.0), (160.0, 20.0), (170.0, 0.0)]      # the re-upload, after A's first
 
 
 def free_udp_port() -> int:
@@ -213,6 +213,7 @@ def measure(layout: Layout, waypoints) -> dict:
                 and first_setpoint_boot_ms is None:
             first_setpoint_boot_ms = boot_ms
     stderr = layout.companion_stderr.read_text(errors="replace") if layout.companion else ""
+    report = json.loads(layout.report.read_text()) if layout.report.exists() else {}
     flying = [r for r in truth if r["armed"] and r["up_m"] > 5.0]
     # each waypoint in order: the first true position within 4 m after the previous one's
     order, t_prev = [], 0.0
@@ -233,7 +234,10 @@ def measure(layout: Layout, waypoints) -> dict:
         "rate_warnings": len(re.findall(r"below \d+% of the asked rate", stderr)),
         "rate_lines": [line for line in stderr.splitlines() if "rate" in line and "WARNING" in line][:5],
         "mission_lines": [line.split(": ", 1)[-1] for line in stderr.splitlines()
-                          if "mission" in line.lower()][:20],
+                          if "mission" in line.lower() and "effective config" not in line][:20],
+        "phases": report.get("phases"),
+        "airborne_t_s": next((t for t, phase, _ in report.get("phases") or []
+                              if phase == "airborne"), None),
         "phase_lines": [line for line in stderr.splitlines() if "flight phase" in line],
         "waypoint_t_s": order,
         "clearance_m": clearance,
@@ -278,6 +282,7 @@ def run(upload: str, speedup: float, reupload: bool, gcs_rate_hz: int | None,
             time.sleep(3.0 / speedup)
             layout.wp_load(wpl_a)
         end = time.monotonic() + duration_s / speedup
+        next_rates = time.monotonic()
         reuploaded = False
         flown = MISSION_A
         while time.monotonic() < end:
@@ -287,8 +292,9 @@ def run(upload: str, speedup: float, reupload: bool, gcs_rate_hz: int | None,
                 if (report.get("mission") or {}).get("reached") == [1]:
                     layout.wp_load(wpl_b)
                     reuploaded, flown = True, MISSION_A[:1] + MISSION_B
-            if gcs_rate_hz is not None and int(time.monotonic()) % 5 == 0:
-                layout.set_rates(gcs_rate_hz)        # as MAVProxy re-asks
+            if gcs_rate_hz is not None and time.monotonic() >= next_rates:
+                layout.set_rates(gcs_rate_hz)        # as a ground station re-asks
+                next_rates += 5.0 / speedup
             if layout.report.exists():
                 mission = json.loads(layout.report.read_text()).get("mission") or {}
                 if mission.get("complete"):

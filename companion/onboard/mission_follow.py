@@ -142,6 +142,10 @@ class MissionFollower:
             return []
         log.info("mission changed on the autopilot (total %d -> %d, id %d -> %d)",
                  previous[0], signature[0], previous[1], signature[1])
+        if self.download is not None and self.download.active:
+            # one under way (the upload's ACK started it, or a recheck): its count is checked
+            # against this total when it is done, rather than begun again for every change
+            return []
         return [codec.Notice(codec.SEVERITY_INFO, "companion: mission changed, re-reading"),
                 *self._start(t_s, "mission changed")]
 
@@ -164,6 +168,10 @@ class MissionFollower:
             self.refusals = 0
             self._last_download_t_s = t_s
             self._adopt(build_plan(dl.items, self.default_radius_m), out)
+            total = self._signature[0] if self._signature is not None else None
+            if total not in (None, 0, 65535) and total != len(dl.items) - 1:
+                # MISSION_CURRENT says another length: the mission changed under the download
+                out.extend(self._start(t_s, f"{len(dl.items) - 1} items read, vehicle says {total}"))
 
     def _adopt(self, plan: MissionPlan, out: list) -> None:
         if self.plan is not None and plan.waypoints == self.plan.waypoints:

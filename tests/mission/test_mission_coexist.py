@@ -139,3 +139,25 @@ def test_the_codec_decodes_the_vehicles_requests_to_an_uploader():
     event = codec.decode(msg)
     assert isinstance(event, mc.MissionRequestSeen)
     assert (event.target_system, event.target_component, event.seq) == (255, 230, 3)
+
+
+def test_a_mission_current_change_during_a_download_is_checked_when_it_is_done():
+    f = MissionFollower(191, 2.0)
+    f.on_vehicle(0.0, VEHICLE)
+    f.on_event(0.1, mc.MissionCurrent(*VEHICLE, 0, 0, 0))
+    f.on_event(0.2, mc.MissionCount(*VEHICLE, 2, 0, 1, 191))
+    assert f.on_event(0.3, mc.MissionCurrent(*VEHICLE, 0, 1, 0)) == []     # not begun again
+    f.on_event(0.4, HOME)
+    out = f.on_event(0.5, wp(1, mc.FRAME_LOCAL_NED, 300000, 0))
+    assert requests(out) == [] and f.downloads == 1                         # 1 item = total 1
+    f.on_event(0.6, mc.MissionCurrent(*VEHICLE, 0, 2, 0))                   # changed again
+    assert f.download is not None and f.download.active
+
+
+def test_a_download_shorter_than_the_vehicles_total_is_read_again():
+    f = MissionFollower(191, 2.0)
+    f.on_vehicle(0.0, VEHICLE)
+    f.on_event(0.1, mc.MissionCount(*VEHICLE, 1, 0, 1, 191))
+    f.on_event(0.15, mc.MissionCurrent(*VEHICLE, 0, 3, 0))                  # first: recorded
+    out = f.on_event(0.2, HOME)
+    assert requests(out) == [mc.RequestList(*VEHICLE)]                      # 0 read, 3 there
