@@ -246,6 +246,24 @@ def measure(layout: Layout, waypoints) -> dict:
     }
 
 
+def near(truth: Path, point_ne_m, within_m: float) -> bool:
+    """The vehicle's latest true position (the truth log's last whole line) is within reach."""
+    try:
+        with open(truth, "rb") as f:
+            f.seek(0, os.SEEK_END)
+            f.seek(max(0, f.tell() - 4096))
+            lines = f.read().decode(errors="replace").splitlines()
+    except OSError:
+        return False
+    for line in reversed(lines[1:] if len(lines) > 1 else lines):
+        try:
+            r = json.loads(line)
+        except ValueError:
+            continue
+        return math.hypot(r["north_m"] - point_ne_m[0], r["east_m"] - point_ne_m[1]) <= within_m
+    return False
+
+
 def wait_for_file_text(path: Path, needle: str, timeout_s: float) -> bool:
     deadline = time.monotonic() + timeout_s
     while time.monotonic() < deadline:
@@ -272,9 +290,10 @@ def run(upload: str, speedup: float, reupload: bool, gcs_rate_hz: int | None,
             wait_for_file_text(layout.companion_stderr, "vehicle found", 20.0)
             layout.wp_load(wpl_a)
             layout.take_off()
-        elif upload == "before":
-            layout.take_off()
+        elif upload == "before":          # uploaded, then the companion up, then the takeoff
             layout.start_companion()
+            wait_for_file_text(layout.companion_stderr, "vehicle found", 20.0)
+            layout.take_off()
         else:                             # after: the companion up from boot, the upload later
             layout.start_companion()
             wait_for_file_text(layout.companion_stderr, "vehicle found", 20.0)
@@ -287,11 +306,9 @@ def run(upload: str, speedup: float, reupload: bool, gcs_rate_hz: int | None,
         flown = MISSION_A
         while time.monotonic() < end:
             layout.drain()
-            if reupload and not reuploaded and layout.report.exists():
-                report = json.loads(layout.report.read_text())
-                if (report.get("mission") or {}).get("reached") == [1]:
-                    layout.wp_load(wpl_b)
-                    reuploaded, flown = True, MISSION_A[:1] + MISSION_B
+            if reupload and not reuploaded and near(layout.truth, MISSION_A[0], 2.0):
+                layout.wp_load(wpl_b)          # the first waypoint reached: a changed mission
+                reuploaded, flown = True, MISSION_A[:1] + MISSION_B
             if gcs_rate_hz is not None and time.monotonic() >= next_rates:
                 layout.set_rates(gcs_rate_hz)        # as a ground station re-asks
                 next_rates += 5.0 / speedup
@@ -305,6 +322,7 @@ def run(upload: str, speedup: float, reupload: bool, gcs_rate_hz: int | None,
     result = measure(layout, flown)
     result["report_mission"] = (json.loads(layout.report.read_text()).get("mission")
                                 if layout.report.exists() else None)
+    result["reuploaded"] = reuploaded
     return result
 
 
