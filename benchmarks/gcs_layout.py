@@ -246,24 +246,6 @@ def measure(layout: Layout, waypoints) -> dict:
     }
 
 
-def near(truth: Path, point_ne_m, within_m: float) -> bool:
-    """The vehicle's latest true position (the truth log's last whole line) is within reach."""
-    try:
-        with open(truth, "rb") as f:
-            f.seek(0, os.SEEK_END)
-            f.seek(max(0, f.tell() - 4096))
-            lines = f.read().decode(errors="replace").splitlines()
-    except OSError:
-        return False
-    for line in reversed(lines[1:] if len(lines) > 1 else lines):
-        try:
-            r = json.loads(line)
-        except ValueError:
-            continue
-        return math.hypot(r["north_m"] - point_ne_m[0], r["east_m"] - point_ne_m[1]) <= within_m
-    return False
-
-
 def wait_for_file_text(path: Path, needle: str, timeout_s: float) -> bool:
     deadline = time.monotonic() + timeout_s
     while time.monotonic() < deadline:
@@ -306,7 +288,8 @@ def run(upload: str, speedup: float, reupload: bool, gcs_rate_hz: int | None,
         flown = MISSION_A
         while time.monotonic() < end:
             layout.drain()
-            if reupload and not reuploaded and near(layout.truth, MISSION_A[0], 2.0):
+            if reupload and not reuploaded and "waypoint 1 reached" in \
+                    layout.companion_stderr.read_text(errors="replace"):
                 layout.wp_load(wpl_b)          # the first waypoint reached: a changed mission
                 reuploaded, flown = True, MISSION_A[:1] + MISSION_B
             if gcs_rate_hz is not None and time.monotonic() >= next_rates:
@@ -316,7 +299,7 @@ def run(upload: str, speedup: float, reupload: bool, gcs_rate_hz: int | None,
                 mission = json.loads(layout.report.read_text()).get("mission") or {}
                 if mission.get("complete"):
                     break
-            time.sleep(0.2)
+            time.sleep(0.05)
     finally:
         layout.close()
     result = measure(layout, flown)
