@@ -136,7 +136,7 @@ class Layout:
 
     def start_companion(self, config_overrides: dict | None = None) -> None:
         sys.path.insert(0, str(REPO))
-        from companion.config.schema import config_to_dict, load_config
+        from companion.config.service import config_to_dict, load_config
         data = config_to_dict(load_config(REPO / "config" / "companion.yaml"))
         for section, values in (config_overrides or {}).items():
             data[section].update(values)
