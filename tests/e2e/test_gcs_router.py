@@ -5,7 +5,8 @@ MAVProxy's `wp load` uploads the mission before, while, or after the companion s
 changed one mid-flight. Each flight: every waypoint in order (true position within 4 m),
 clearance >= 9.5 m, the flight phase airborne within 5 s of the vehicle reaching take-off
 altitude (vehicle time). The stub runs at 4x real time (MAVProxy and the companion on the wall
-clock: lock-step does not pass a router); about 25 s of wall time per flight."""
+clock: lock-step does not pass a router); about 25 s of wall time per flight, two flights in the
+default run, two more behind -m slow."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -29,7 +30,9 @@ def check_flight(result: dict, waypoints) -> None:
     assert result["clearance_m"] >= 9.5, result["clearance_m"]
 
 
-@pytest.mark.parametrize("upload", ["before", "after"])
+# "before" is the layout the lock-step mission test (test_mission_flight.py) already flies
+# directly: slow here, to keep this file's default run near 50 s of wall time
+@pytest.mark.parametrize("upload", [pytest.param("before", marks=pytest.mark.slow), "after"])
 def test_a_mission_uploaded_before_or_after_the_companion_starts_is_flown(tmp_path, upload):
     result = run(upload, SPEEDUP, reupload=False, gcs_rate_hz=None, workdir=tmp_path,
                  duration_s=DURATION_S)
