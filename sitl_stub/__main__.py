@@ -32,6 +32,7 @@ from .lockstep import (DEFAULT_TIMEOUT_S, MSG_ID_ODOMETRY, SAMPLE_IDS, LockstepG
                        LockstepOptions, odometry_last)
 from .params import ParamTable
 from .sim import Simulation
+from .streams import STREAMABLE
 from .telemetry import COMP_AUTOPILOT, MODE_NAMES
 from . import shapes
 from .world import Scenario, ScenarioError, load_scenario, obstacles_at
@@ -63,6 +64,7 @@ class Options:
     streams_off: bool
     lockstep: LockstepOptions | None = None
     route: bool = False
+    boot_intervals: tuple[tuple[int, float], ...] = ()     # (message id, Hz) every link starts with
 
 
 class TruthLog:
@@ -121,6 +123,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--route", action="store_true",
                    help="route MAVLink between clients as ArduPilot does (sitl_stub/routing.py): "
                         "a ground station reaches the companion's component through the stub")
+    p.add_argument("--message-rate", action="append", default=[], metavar="MSG_ID:HZ",
+                   help="a message every link starts with at this rate (repeatable): as the "
+                        "SRn_ parameters of a companion's port on a real vehicle; applied at "
+                        "t=0 after the boot burst, as a SET_MESSAGE_INTERVAL then would be "
+                        "(a link's own requests change only its own rates)")
     p.add_argument("--lockstep", action="store_true",
                    help="step only when the companion's ODOMETRY says it has caught up "
                         "(docs/sitl_stub.md); --speedup paces the free-run fallback")
@@ -169,7 +176,20 @@ def parse_options(argv: list[str] | None) -> Options:
     return Options(scenario=load_scenario(args.scenario), tcp=tcp, udp=udp, speedup=args.speedup,
                    seed=args.seed, truth_log=Path(args.truth_log) if args.truth_log else None,
                    drop_rate=args.drop_rate, sysid=sysid, signing_key=key,
-                   streams_off=args.streams_off, lockstep=lockstep, route=args.route)
+                   streams_off=args.streams_off, lockstep=lockstep, route=args.route,
+                   boot_intervals=tuple(_message_rate(text) for text in args.message_rate))
+
+
+def _message_rate(text: str) -> tuple[int, float]:
+    msg_id, _, rate = text.partition(":")
+    try:
+        result = int(msg_id), float(rate)
+    except ValueError:
+        raise ValueError(f"--message-rate: expected MSG_ID:HZ, got {text!r}") from None
+    if result[0] not in STREAMABLE or not (0.0 < result[1] <= 1000.0):
+        raise ValueError(f"--message-rate: {text!r}: a streamable message id "
+                         f"({', '.join(map(str, STREAMABLE))}) and 0 < HZ <= 1000")
+    return result
 
 
 def _read_signing_key(path: str) -> bytes:
@@ -225,7 +245,26 @@ async def simulate(opts: Options, sim: Simulation, ap: Autopilot, cam: CameraCom
             items = lockstep.note_burst(odometry_last(items))
         hub.broadcast(items)
 
-    emit(ap.periodic(sim.t_s) + cam.periodic(sim.t_s))
+    def emit_step(t_s: float, head: list) -> None:
+        """The step's messages. A link with its own stream rates (it asked: SET_MESSAGE_INTERVAL
+        or REQUEST_DATA_STREAM) gets its own streams; the others share one set."""
+        shared = ap.stream_items(ap.streams.shared, t_s)
+        tail = ap.mission_ticks(t_s) + cam.periodic(t_s)
+        own = ap.link_streams(t_s)
+        if not own:
+            emit(head + shared + tail)
+            return
+        for link, items in own.items():
+            items = head + items + tail
+            hub.broadcast(odometry_last(items) if lockstep is not None else items, only=link)
+        items = head + shared + tail
+        if lockstep is not None:
+            items = lockstep.note_burst(odometry_last(items))
+        hub.broadcast(items, exclude=frozenset(own))
+
+    emit_step(sim.t_s, [])
+    for msg_id, rate_hz in opts.boot_intervals:
+        ap.streams.shared.set_message_interval(msg_id, 1e6 / rate_hz)
     if truth_log is not None:
         truth_log.write(sim.t_s, sim, ap)
     while True:
@@ -239,7 +278,7 @@ async def simulate(opts: Options, sim: Simulation, ap: Autopilot, cam: CameraCom
         handle_inbox()
         sim.step(ap.demand(sim.t_s), ap.armed, ap.climb_limits())
         t_s = sim.t_s
-        emit(ap.after_step(t_s) + ap.periodic(t_s) + cam.periodic(t_s))
+        emit_step(t_s, ap.after_step(t_s))
         if truth_log is not None:
             truth_log.write(t_s, sim, ap)
 
@@ -353,7 +392,7 @@ def handle_safely(ap: Autopilot, name: str, msg, t_s: float) -> list:
     stations, routers, fuzzers) and must give a clean refusal rather than die on one message.
     """
     try:
-        return ap.handle(msg, t_s)
+        return ap.handle(msg, t_s, link=name)
     except Exception:   # noqa: BLE001 - logged with traceback, never silent
         log.exception("error handling %s from %s; message dropped", msg.get_type(), name)
         return []

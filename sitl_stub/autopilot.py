@@ -53,7 +53,8 @@ class Autopilot:
         self.sim = sim
         self.params = params
         self.sysid = int(params.get("SYSID_THISMAV"))
-        self.scheduler = streams.StreamScheduler(params)
+        self.streams = streams.LinkSchedulers(params)
+        self._link: str | None = None   # the link of the message being handled
         self.mode = tm.MODE_STABILIZE
         self.armed = False
         self.target: guided.GuidedTarget | None = None
@@ -134,17 +135,32 @@ class Autopilot:
         voltage = BATTERY_FULL_MV - (BATTERY_FULL_MV - BATTERY_EMPTY_MV) * used
         return int(voltage), int(round(self._current_a() * 100)), int(round(100 * (1 - used)))
 
+    @property
+    def scheduler(self) -> streams.StreamScheduler:
+        """The streams of every link that never asked for its own."""
+        return self.streams.shared
+
     def periodic(self, t_s: float) -> list[Outgoing]:
-        """Heartbeat and the telemetry streams due at t_s."""
+        """Heartbeat and the telemetry streams due at t_s (the shared scheduler's), then the
+        mission protocol's resends."""
+        return self.stream_items(self.streams.shared, t_s) + self.mission_ticks(t_s)
+
+    def stream_items(self, scheduler: streams.StreamScheduler, t_s: float) -> list[Outgoing]:
         out: list[Outgoing] = []
-        sim = self.sim
-        origin = sim.scenario.world.origin
-        for msg_id in self.scheduler.due(t_s):
+        origin = self.sim.scenario.world.origin
+        for msg_id in scheduler.due(t_s):
             msg = self._stream_message(msg_id, t_s, origin)
             if msg is not None:
                 out.append((tm.COMP_AUTOPILOT, msg))
-        out.extend((tm.COMP_AUTOPILOT, m) for m in self.mission.tick(t_s))
         return out
+
+    def mission_ticks(self, t_s: float) -> list[Outgoing]:
+        return [(tm.COMP_AUTOPILOT, m) for m in self.mission.tick(t_s)]
+
+    def link_streams(self, t_s: float) -> dict[str, list[Outgoing]]:
+        """The streams due at t_s on each link that asked for its own rates."""
+        return {link: self.stream_items(scheduler, t_s)
+                for link, scheduler in self.streams.own.items()}
 
     def _stream_message(self, msg_id: int, t_s: float, origin):
         sim = self.sim
@@ -194,15 +210,20 @@ class Autopilot:
         return None
 
     # ----------------------------------------------------------------- message handling
-    def handle(self, msg, t_s: float) -> list[Outgoing]:
-        """Handle one decoded message from a client; returns the replies."""
+    def handle(self, msg, t_s: float, link: str | None = None) -> list[Outgoing]:
+        """Handle one decoded message from a client (on ``link``, the hub's client name: stream
+        requests apply to it); returns the replies."""
         mtype = msg.get_type()
         if not self._for_us(msg):
             return []
         handler = getattr(self, "_on_" + mtype.lower(), None)
         if handler is None:
             return []   # includes PARAM_EXT_* and anything else the stub does not implement
-        return handler(msg, t_s)
+        self._link = link
+        try:
+            return handler(msg, t_s)
+        finally:
+            self._link = None
 
     def _for_us(self, msg) -> bool:
         target_system = getattr(msg, "target_system", 0)
@@ -245,12 +266,12 @@ class Autopilot:
             return []
         log.info("parameter %s set to %g", name, record.value)
         if name.startswith("SR"):
-            self.scheduler.rates_changed()
+            self.streams.rates_changed()
         return [(tm.COMP_AUTOPILOT, tm.param_value(record))]
 
     def _on_request_data_stream(self, msg, t_s: float) -> list[Outgoing]:
-        self.scheduler.request_data_stream(int(msg.req_stream_id), int(msg.req_message_rate),
-                                           bool(msg.start_stop))
+        self.streams.for_link(self._link).request_data_stream(
+            int(msg.req_stream_id), int(msg.req_message_rate), bool(msg.start_stop))
         return []
 
     def _mission(self, msg, t_s: float) -> list[Outgoing]:
@@ -331,7 +352,8 @@ class Autopilot:
                 result = FAILED
         elif command == mavlink.MAV_CMD_SET_MESSAGE_INTERVAL:
             ok = (math.isfinite(p[0]) and math.isfinite(p[1])
-                  and self.scheduler.set_message_interval(_as_int(p[0]), p[1]))
+                  and self.streams.for_link(self._link).set_message_interval(_as_int(p[0]),
+                                                                             p[1]))
             result = ACCEPTED if ok else FAILED
         elif command == mavlink.MAV_CMD_GET_MESSAGE_INTERVAL:
             msg_id = _as_int(p[0])
@@ -356,7 +378,8 @@ class Autopilot:
     def _interval_us(self, msg_id: int) -> int:
         if msg_id not in streams.STREAMABLE:
             return 0          # not available
-        interval = self.scheduler.interval_s(msg_id)
+        interval = (self.streams.of(self._link) if self._link is not None
+                    else self.streams.shared).interval_s(msg_id)
         return -1 if interval is None else int(round(interval * 1e6))
 
     def _requested_message(self, msg_id: int, t_s: float):

@@ -222,8 +222,10 @@ class LinkHub:
                               udp_clients=len(self._udp_clients), **self._n)
 
     # ------------------------------------------------------------------ sending
-    def broadcast(self, items: list[tuple[int, object]], only: str | None = None) -> None:
-        """Send each (component, message) to every client (or to the client named ``only``)."""
+    def broadcast(self, items: list[tuple[int, object]], only: str | None = None,
+                  exclude: frozenset[str] = frozenset()) -> None:
+        """Send each (component, message) to every client (or to the client named ``only``),
+        but those named in ``exclude``."""
         if not items:
             return
         delivered, wanted = self.on_delivered, self.delivered_ids
@@ -241,7 +243,7 @@ class LinkHub:
         # sample while the stub is still encoding for the ground stations.
         if self._udp_transport is not None:
             for addr, client in list(self._udp_clients.items()):
-                if only not in (None, client.name):
+                if only not in (None, client.name) or client.name in exclude:
                     continue
                 # A burst goes out in as few datagrams as fit (MAVLink over UDP is a stream of
                 # whole packets; every receiver parses a datagram as one): one syscall and one
@@ -263,7 +265,7 @@ class LinkHub:
                 if chunks:
                     self._udp_transport.sendto(b"".join(chunks), addr)
         for name, (client, writer) in list(self._tcp_clients.items()):
-            if writer.is_closing() or only not in (None, name):
+            if writer.is_closing() or only not in (None, name) or name in exclude:
                 continue
             chunks, msgs = [], []
             for index, (_, msg) in enumerate(items):

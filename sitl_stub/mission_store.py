@@ -13,7 +13,10 @@ with the SITL binary of ../shared/ardupilot):
 - Download: MISSION_REQUEST_LIST -> MISSION_COUNT; MISSION_REQUEST_INT -> MISSION_ITEM_INT,
   MISSION_REQUEST -> MISSION_ITEM; a seq beyond the mission -> MISSION_ACK INVALID_SEQUENCE;
   during an upload -> DENIED.
-- MISSION_CLEAR_ALL -> MISSION_ACK ACCEPTED (DENIED during an upload); only home remains.
+- MISSION_CLEAR_ALL -> MISSION_ACK ACCEPTED (ERROR during an upload:
+  MissionItemProtocol::handle_mission_clear_all); only home remains.
+- One upload at a time; downloads keep no state, so an upload may start during someone's
+  download (whose next MISSION_REQUEST_INT is then DENIED).
 - MISSION_CURRENT: seq (the current item, 0 until a mission runs), total, mission_state
   NO_MISSION (1) with no waypoint else NOT_STARTED (2): the stub never runs a mission (no AUTO).
 Only mission type 0 (flight plan) is stored; fence and rally requests get MISSION_ACK UNSUPPORTED.
@@ -102,7 +105,7 @@ class MissionStore:
             return self._on_request(src, int(msg.seq), kind == "MISSION_REQUEST_INT")
         if kind == "MISSION_CLEAR_ALL":
             if self._upload is not None:
-                return [self._ack(src, mavlink.MAV_MISSION_DENIED)]
+                return [self._ack(src, mavlink.MAV_MISSION_ERROR)]
             self.items, self.current_seq = [], 0
             return [self._ack(src, mavlink.MAV_MISSION_ACCEPTED), self.mission_current()]
         if kind == "MISSION_SET_CURRENT":

@@ -1,9 +1,14 @@
 """Telemetry stream scheduling on simulated time, as ArduPilot does it.
 
-Each emitted message belongs to an ArduPilot stream whose rate is the SR0_<stream> parameter
-(one global set for all links, see docs). MAV_CMD_SET_MESSAGE_INTERVAL overrides one message;
-REQUEST_DATA_STREAM sets a whole stream's rate and clears the overrides of its messages.
-Messages are emitted on physics steps, so the highest effective rate is 1 / vehicle.dt_s.
+Each emitted message belongs to an ArduPilot stream whose rate is the SR0_<stream> parameter.
+MAV_CMD_SET_MESSAGE_INTERVAL overrides one message; REQUEST_DATA_STREAM sets a whole stream's
+rate and clears the overrides of its messages (GCS_MAVLINK::handle_request_data_stream ->
+initialise_message_intervals_for_stream). ArduPilot keeps both per link (each GCS_MAVLINK
+channel has its own streamRates and message intervals): a link that asks gets its own
+scheduler (``LinkSchedulers``), started from the shared one, so a companion on its own port keeps
+its rates whatever a ground station on another port asks for. The SR0_ parameters are every
+link's rates at boot (the stub keeps SR0_ and SR1_ equal). Messages are emitted on physics steps,
+so the highest effective rate is 1 / vehicle.dt_s.
 """
 from __future__ import annotations
 
@@ -61,6 +66,23 @@ class StreamScheduler:
         self._params = params
         self._override_s: dict[int, float] = {}   # msg id -> interval s, or _DISABLED
         self._next_due_s: dict[int, float] = {}
+        self._own_rates_hz: dict[str, float] | None = None   # a link's own SRn_ (None: params)
+
+    def clone_for_link(self) -> "StreamScheduler":
+        """A link's own scheduler, as the shared one stands now (same intervals, same due
+        times: the link's messages carry on without a gap or a burst)."""
+        other = StreamScheduler(self._params)
+        other._override_s = dict(self._override_s)
+        other._next_due_s = dict(self._next_due_s)
+        other._own_rates_hz = dict(self._own_rates_hz) if self._own_rates_hz is not None \
+            else {suffix: self._params.stream_rate_hz(suffix)
+                  for suffix in DATA_STREAM_SUFFIX.values()}
+        return other
+
+    def _stream_rate_hz(self, suffix: str) -> float:
+        if self._own_rates_hz is not None:
+            return self._own_rates_hz[suffix]
+        return self._params.stream_rate_hz(suffix)
 
     def interval_s(self, msg_id: int) -> float | None:
         """Current interval of a message in seconds, or None if it is not being sent."""
@@ -75,7 +97,7 @@ class StreamScheduler:
         suffix = STREAM_OF_MESSAGE.get(msg_id)
         if suffix is None:
             return None
-        rate_hz = self._params.stream_rate_hz(suffix)
+        rate_hz = self._stream_rate_hz(suffix)
         return 1.0 / rate_hz if rate_hz > 0 else None
 
     def set_message_interval(self, msg_id: int, interval_us: float) -> bool:
@@ -102,9 +124,12 @@ class StreamScheduler:
             suffixes = [DATA_STREAM_SUFFIX[stream_id]]
         else:
             return False
-        rate = float(rate_hz) if start else 0.0
+        rate = max(0.0, float(rate_hz)) if start else 0.0
         for suffix in suffixes:
-            self._params.set(f"SR0_{suffix}", rate)
+            if self._own_rates_hz is not None:
+                self._own_rates_hz[suffix] = rate
+            else:
+                self._params.set(f"SR0_{suffix}", rate)
             for msg_id, msg_suffix in STREAM_OF_MESSAGE.items():
                 if msg_suffix == suffix:
                     self._override_s.pop(msg_id, None)
@@ -112,7 +137,11 @@ class StreamScheduler:
         return True
 
     def rates_changed(self) -> None:
-        """Call after an SRn_ parameter changed, so new rates take effect at once."""
+        """Call after an SRn_ parameter changed, so new rates take effect at once (a PARAM_SET
+        of SRn_ sets every link's rates: the stub has one parameter set)."""
+        if self._own_rates_hz is not None:
+            self._own_rates_hz = {suffix: self._params.stream_rate_hz(suffix)
+                                  for suffix in DATA_STREAM_SUFFIX.values()}
         self._next_due_s.clear()
 
     def due(self, t_s: float) -> list[int]:
@@ -131,3 +160,32 @@ class StreamScheduler:
                     next_due = t_s + interval
                 self._next_due_s[msg_id] = next_due
         return out
+
+
+class LinkSchedulers:
+    """The shared scheduler (every link that never asked) and the links' own ones."""
+
+    def __init__(self, params: ParamTable) -> None:
+        self.shared = StreamScheduler(params)
+        self.own: dict[str, StreamScheduler] = {}
+
+    def for_link(self, link: str | None) -> StreamScheduler:
+        """The scheduler a stream request from ``link`` changes (None: the shared one, for a
+        caller that does not say where the request came from)."""
+        if link is None:
+            return self.shared
+        if link not in self.own:
+            self.own[link] = self.shared.clone_for_link()
+        return self.own[link]
+
+    def of(self, link: str) -> StreamScheduler:
+        """The scheduler whose messages ``link`` receives."""
+        return self.own.get(link, self.shared)
+
+    def forget(self, link: str) -> None:
+        self.own.pop(link, None)
+
+    def rates_changed(self) -> None:
+        self.shared.rates_changed()
+        for scheduler in self.own.values():
+            scheduler.rates_changed()

@@ -91,7 +91,11 @@ def effective_config(args: argparse.Namespace) -> CompanionConfig:
     """The config file with the command line's overrides applied."""
     config = load_config(resolve_config(args.config))
     if args.goal:
-        config = dataclasses.replace(config, goal=parse_goal(args.goal))
+        goal = parse_goal(args.goal)
+        if goal.mission and config.goal is not None and config.goal.mission:
+            # --goal mission keeps the file's mission settings (the recheck)
+            goal = dataclasses.replace(goal, mission_recheck_s=config.goal.mission_recheck_s)
+        config = dataclasses.replace(config, goal=goal)
     if config.goal is None:
         raise ConfigError(f"{args.config}: goal: not set; give --goal NORTH,EAST (or "
                           "--goal geo:LAT,LON) or a goal: section")

@@ -171,9 +171,16 @@ class GoalConfig:
     lat_deg: float | None = None
     lon_deg: float | None = None
     mission: bool = False                     # fly the autopilot's mission (companion/onboard/mission.py)
+    # with mission: download it again this often (s) to catch a re-upload of the same length
+    # that nothing announced (no mission_id, no MISSION_ACK heard); null: never
+    mission_recheck_s: float | None = None
 
     def __post_init__(self) -> None:
         require_positive("radius_m", self.radius_m)
+        if self.mission_recheck_s is not None:
+            if not self.mission:
+                raise FieldError("mission_recheck_s", "only with mission: true")
+            require_positive("mission_recheck_s", self.mission_recheck_s)
         if self.mission:
             given = [k for k in ("north_m", "east_m", "lat_deg", "lon_deg")
                      if getattr(self, k) is not None]

@@ -106,6 +106,7 @@ class Service:
                                       if msg_id in ODOMETRY_STREAMS},
                                      streams.rate_check_s, streams.min_rate_fraction,
                                      streams.max_reasserts)
+        self._rates_said = False
         self.notices = NoticeLimiter(config.safety.statustext_repeat_s,
                                      config.safety.statustext_per_s)
         if tlog is not None:
@@ -241,11 +242,27 @@ class Service:
             self.link.send(codec.statustext(codec.Notice(codec.SEVERITY_INFO, text)))
         if self.pipeline.vehicle is None or not self._odometry_seen.is_set():
             return                        # request_streams is still asking
+        gave_up = set(self.rates.gave_up)
         again = self.rates.check(now_s)
         if again:
-            log.warning("streams %s below %.0f%% of the asked rate: asking again",
-                        ", ".join(str(m) for m in again), 100 * self.config.streams.min_rate_fraction)
+            rates = self.rates.last_measured_hz
+            got = ", ".join(f"{m} at {rates[m]:.1f} Hz (asked {self.rates.asked_hz[m]:g})"
+                            for m in again)
+            if not self._rates_said:
+                # Once: what it got and why. A ground station or router on the same link
+                # (MAVProxy, Mission Planner, QGC: 4 Hz by default) sets the vehicle's stream
+                # rates with REQUEST_DATA_STREAM, and ArduPilot keeps one set per link.
+                log.warning("streams %s: another client on this link (a ground station or "
+                            "router) sets the vehicle's stream rates; asking again at most %d "
+                            "times, flying at the rate that comes", got,
+                            self.config.streams.max_reasserts)
+                self._rates_said = True
+            else:
+                log.debug("streams %s: asking again", got)
             self.streams_wanted.set()
+        for msg_id in sorted(self.rates.gave_up - gave_up):
+            log.info("stream %d stays at %.1f Hz: not asked again; estimate and decisions run "
+                     "at that rate", msg_id, self.rates.last_measured_hz.get(msg_id, 0.0))
 
     async def send_heartbeats(self) -> None:
         period_s = 1.0 / self.config.link.heartbeat_rate_hz
@@ -364,6 +381,8 @@ class Service:
         data["link"] = asdict(self.link.statistics())
         data["statustext_suppressed"] = self.notices.suppressed
         data["stream_reasserts"] = self.rates.reasserts
+        data["stream_rates_hz"] = self.rates.last_measured_hz
+        data["phases"] = [list(change) for change in self.pipeline.phase_changes]
         data["setpoints_refused"] = dict(self.pipeline.gate.refused)
         data["config"] = config_to_dict(self.pipeline.config)
         if self.overlay is not None:

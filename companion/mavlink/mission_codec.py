@@ -108,6 +108,23 @@ class MissionItemReached:
     seq: int
 
 
+@dataclass(frozen=True)
+class MissionRequestSeen:
+    """MISSION_REQUEST or MISSION_REQUEST_INT from the vehicle: it is receiving an upload from
+    (target_system, target_component)."""
+    system_id: int
+    component_id: int
+    seq: int
+    mission_type: int
+    target_system: int
+    target_component: int
+
+
+def _request(msg, sysid: int, compid: int) -> MissionRequestSeen:
+    return MissionRequestSeen(sysid, compid, int(msg.seq), int(getattr(msg, "mission_type", 0)),
+                              int(msg.target_system), int(msg.target_component))
+
+
 def _count(msg, sysid: int, compid: int) -> MissionCount:
     return MissionCount(sysid, compid, int(msg.count), int(getattr(msg, "mission_type", 0)),
                         int(msg.target_system), int(msg.target_component))
@@ -141,9 +158,12 @@ DECODERS = {
     "MISSION_ACK": _ack,
     "MISSION_CURRENT": _current,
     "MISSION_ITEM_REACHED": _reached,
+    "MISSION_REQUEST": _request,
+    "MISSION_REQUEST_INT": _request,
 }
 
-MissionEvent = MissionCount | MissionItem | MissionAck | MissionCurrent | MissionItemReached
+MissionEvent = MissionCount | MissionItem | MissionAck | MissionCurrent | MissionItemReached \
+    | MissionRequestSeen
 
 
 # ------------------------------------------------------------------ outbound intents

@@ -10,11 +10,14 @@ while a ground station uploads) abandons it too; the caller may start again.
 
 ``build_plan`` turns the items into waypoints the companion flies: ArduPilot keeps home as item 0
 (not flown); NAV_WAYPOINT in a global frame (latitude/longitude, the altitude ignored: the
-companion holds its own) or MAV_FRAME_LOCAL_NED (metres from the EKF origin); its param2 is the
-acceptance radius (0: the configured one). Everything else is named and skipped, never guessed.
+companion holds its own) or MAV_FRAME_LOCAL_NED (metres from the EKF origin); its param1 is the
+hold time in seconds (ArduCopter: loiter there that long before the next; negative or not finite:
+0, named), its param2 the acceptance radius (0: the configured one). Everything else is named and
+skipped, never guessed.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 from companion.mavlink import mission_codec as mc
@@ -113,6 +116,7 @@ class Waypoint:
     lon_deg: float | None = None
     north_m: float | None = None
     east_m: float | None = None
+    hold_s: float = 0.0                # NAV_WAYPOINT param1
 
     @property
     def is_geographic(self) -> bool:
@@ -138,6 +142,10 @@ def build_plan(items: list[mc.MissionItem], default_radius_m: float) -> MissionP
             skipped.append(f"{item.seq}: {name} not flown")
             continue
         radius = item.params[1] if item.params[1] > 0.0 else default_radius_m
+        hold_s = item.params[0]
+        if not (math.isfinite(hold_s) and hold_s >= 0.0):
+            skipped.append(f"{item.seq}: hold {hold_s} s not flown (0 s)")
+            hold_s = 0.0
         if item.frame in mc.GLOBAL_FRAMES:
             if item.x == 0 and item.y == 0:
                 skipped.append(f"{item.seq}: {name} at 0, 0 not flown")
@@ -146,10 +154,10 @@ def build_plan(items: list[mc.MissionItem], default_radius_m: float) -> MissionP
                 skipped.append(f"{item.seq}: {name} lat/lon out of range")
                 continue
             waypoints.append(Waypoint(item.seq, radius, lat_deg=item.lat_deg,
-                                      lon_deg=item.lon_deg))
+                                      lon_deg=item.lon_deg, hold_s=hold_s))
         elif item.frame in mc.LOCAL_FRAMES:
             waypoints.append(Waypoint(item.seq, radius, north_m=item.north_m,
-                                      east_m=item.east_m))
+                                      east_m=item.east_m, hold_s=hold_s))
         else:
             frame = mc.frame_name(item.frame).removeprefix("MAV_FRAME_")
             skipped.append(f"{item.seq}: frame {frame} not flown")

@@ -83,8 +83,10 @@ class Arrived:
     t_s: float
 
 
+PHASE_CHANGES_KEPT = 1000          # flight phase changes kept for the report
 MISSION_EVENTS = (mission_codec.MissionCount, mission_codec.MissionItem, mission_codec.MissionAck,
-                  mission_codec.MissionCurrent, mission_codec.MissionItemReached)
+                  mission_codec.MissionCurrent, mission_codec.MissionItemReached,
+                  mission_codec.MissionRequestSeen)
 
 Output = codec.VelocitySetpoint | codec.PoseEstimate | codec.Notice | codec.MoverReport \
     | codec.SectorMap | mission_codec.MissionRequest | StreamsWanted \
@@ -172,11 +174,13 @@ class Pipeline:
         self.phase = FlightPhase(config.flight.params())
         self.vertical = VerticalHold(config.flight.params())
         self._phase_said: str | None = None
+        self.phase_changes: list[tuple[float, str, str]] = []   # (vehicle s, phase, source)
         self.goal_ne: tuple[float, float] | None = (
             (goal.north_m, goal.east_m) if goal is not None and not goal.is_geographic
             and not goal.mission else None)
         self.goal_radius_m = goal.radius_m if goal is not None else 1.0
-        self.mission = MissionFollower(config.link.component_id, goal.radius_m) \
+        self.mission = MissionFollower(config.link.component_id, goal.radius_m,
+                                       recheck_s=goal.mission_recheck_s) \
             if goal is not None and goal.mission else None
         self._goal_reference: str | None = None
         self.last_command = None        # (t_s, GuidanceCommand) of the latest decision: the view
@@ -284,8 +288,10 @@ class Pipeline:
         """Flight phase inputs and the goal's geographic reference."""
         if isinstance(event, codec.LandedState) and self.clock.latest_t_s is not None:
             self.phase.on_landed_state(self.clock.latest_t_s, event.landed_state)
+            self._note_phase()
         elif isinstance(event, codec.GlobalPosition) and math.isfinite(event.t_s):
             self.phase.on_relative_alt(event.t_s, event.relative_alt_m, event.vel_down_mps)
+            self._note_phase()
         elif isinstance(event, codec.GeoReference):
             self._on_geo_reference(event)
 
@@ -436,6 +442,7 @@ class Pipeline:
             self.clock.on_vehicle_heartbeat()
             self.armed, self.custom_mode = hb.armed, hb.custom_mode
             self.phase.on_armed(hb.armed)
+            self._note_phase()
             self._note_allowed(t_link_s)
         elif self.vehicle is not None and hb.system_id == self.vehicle[0] \
                 and hb.component_id == link.camera_component_id:
@@ -535,6 +542,7 @@ class Pipeline:
 
     def _on_position(self, t_link_s: float, lpn: codec.LocalPosition, out: list[Output]) -> None:
         self.phase.on_local_position(lpn.t_s, lpn.down_m, lpn.vel_down_mps)
+        self._note_phase()
         yaw = self._attitude_at(lpn.t_s)
         if yaw is None:
             self._count("odometry_without_attitude")
@@ -775,6 +783,23 @@ class Pipeline:
             self._send(t_link_s, codec.VelocitySetpoint(*self.vehicle, t_s, 0.0, 0.0, yaw,
                                                         f"hold: {reason}"), out)
 
+    def _note_phase(self) -> None:
+        """The phase as soon as its inputs change, goal or not: a mission uploaded later must
+        not hide when the vehicle became airborne (issue 32)."""
+        t_s = self.clock.latest_t_s
+        if t_s is None:
+            return
+        decision = self.phase.decide(t_s)
+        if decision.phase != self._phase_said:
+            self._say_phase(t_s, decision)
+
+    def _say_phase(self, t_s: float, decision) -> None:
+        self._phase_said = decision.phase
+        if len(self.phase_changes) < PHASE_CHANGES_KEPT:
+            self.phase_changes.append((t_s, decision.phase, decision.source))
+        log.info("flight phase %s (%s) at %.1f s: %s", decision.phase, decision.source, t_s,
+                 "commanding" if decision.may_command else "no setpoints")
+
     def _send(self, t_link_s: float, setpoint: codec.VelocitySetpoint, out: list[Output]) -> None:
         """The one place a setpoint leaves: commanding allowed, airborne (flight phase), the
         vertical hold added, and passed by the gate."""
@@ -786,9 +811,7 @@ class Pipeline:
             return
         decision = self.phase.decide(setpoint.t_s)
         if decision.phase != self._phase_said:
-            self._phase_said = decision.phase
-            log.info("flight phase %s (%s): %s", decision.phase, decision.source,
-                     "commanding" if decision.may_command else "no setpoints")
+            self._say_phase(setpoint.t_s, decision)
         if not decision.may_command:
             self.vertical.reset()
             self._count(f"no_setpoint_{decision.phase.replace(' ', '_')}")

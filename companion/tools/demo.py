@@ -381,6 +381,11 @@ async def run_demo(scenario_path: Path, scenario: Scenario, files: DemoFiles, sp
         stub_args = [sys.executable, "-m", "sitl_stub", "--scenario", str(scenario_path),
                      "--tcp", "127.0.0.1:0", "--udp", "127.0.0.1:0", "--speedup", str(speedup),
                      "--seed", str(seed), "--truth-log", str(files.truth)]
+        # the companion's link starts with the streams it will ask for (on a real vehicle: the
+        # SRn_ parameters of its port), so that its own requests change nothing wherever in
+        # the flight they land; the ground station's requests set only its own link's
+        stub_args += [f"--message-rate={msg_id}:{getattr(config.streams, key):g}"
+                      for msg_id, key in STREAMS]
         if drop_rate:
             stub_args += ["--drop-rate", str(drop_rate)]
         if signing_key_file is not None:

@@ -50,6 +50,12 @@ def test_docs_workflow_takeoff_in_guided_then_avoid_to_the_goal(tmp_path):
         assert sp.type_mask == 0x09C7 and abs(sp.vz) <= 1.0 and math.isfinite(sp.vz)
     assert sent[0].time_boot_ms - takeoff_ms >= 3000            # the climb takes seconds
     result = json.loads(report.read_text())
+    # the hand-over (issue 32, direct layout): airborne, and commanding, within 5 s of the
+    # vehicle reaching its take-off altitude
+    reached_s = min(r["t_s"] for r in truth if r["armed"] and r["up_m"] >= TAKEOFF_ALT_M - 0.5)
+    airborne_s = min(t for t, phase, _ in result["phases"] if phase == "airborne")
+    assert -1.0 <= airborne_s - reached_s <= 5.0, (reached_s, result["phases"])
+    assert sent[0].time_boot_ms / 1000.0 - reached_s <= 5.0
     arrival = at_ms[round(result["arrival_t_s"] * 10) * 100]
     assert math.hypot(arrival["north_m"] - 180.0, arrival["east_m"]) <= 2.0 + 2.0
     flying = [r for r in truth if r["armed"] and r["t_s"] <= result["arrival_t_s"]]
