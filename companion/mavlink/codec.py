@@ -1,4 +1,8 @@
-"""MAVLink <-> typed events. The ONLY module that knows MAVLink field names, ids and scalings.
+"""MAVLink <-> typed events for the service: its messages' field names and scalings live here.
+
+The MAVLink layer is mavlink/: the dialect and message ids (dialect.py), this codec, the
+mission protocol's (mission_codec.py), the demo ground station's (gcs_codec.py), the asyncio link
+with signing (link.py) and tlogs (tlog.py); no module outside mavlink/ knows a field name.
 
 Inbound messages become frozen events in SI units (seconds, metres, radians); outbound intents
 become pymavlink messages. Times: ``t_s`` is the vehicle's time since boot (time_boot_ms / 1000),
