@@ -182,9 +182,10 @@ class Autopilot:
             lat, lon = origin.to_lat_lon_deg(*sim.reported_position_ne_m())
             return tm.gps_raw_int(t_s, has_gps, lat, lon, origin.alt_m + sim.truth.up_m,
                                   sim.position_error.total_sigma_m, sim.truth.speed_mps,
-                                  math.atan2(sim.truth.vel_east_mps, sim.truth.vel_north_mps))
+                                  math.atan2(sim.truth.vel_east_mps, sim.truth.vel_north_mps),
+                                  fix=sim.gps_fix())
         if msg_id == streams.MSG_EKF_STATUS_REPORT:
-            return tm.ekf_status_report(has_gps)
+            return tm.ekf_status_report(sim.gps_fix())
         if msg_id == streams.MSG_GPS_GLOBAL_ORIGIN:
             return tm.gps_global_origin(origin, t_s)
         if msg_id == streams.MSG_SYSTEM_TIME:
@@ -192,7 +193,8 @@ class Autopilot:
         if msg_id == streams.MSG_ATTITUDE:
             return tm.attitude(t_s, sim.reported_yaw_rad(), sim.reported_yaw_rate_rad_s())
         if msg_id == streams.MSG_LOCAL_POSITION_NED:
-            return tm.local_position_ned(t_s, sim.odometry, *sim.reported_position_ne_m())
+            return tm.local_position_ned(t_s, sim.odometry, *sim.reported_position_ne_m(),
+                                         sim.reported_velocity_ne_mps())
         if msg_id == streams.MSG_GLOBAL_POSITION_INT:
             return tm.global_position_int(t_s, sim.odometry, *sim.reported_position_ne_m(),
                                           origin, self.home[2])
@@ -236,6 +238,14 @@ class Autopilot:
 
     def _ack(self, msg, command: int, result: int, comp: int = tm.COMP_AUTOPILOT) -> Outgoing:
         return (comp, tm.command_ack(command, result, msg.get_srcSystem(), msg.get_srcComponent()))
+
+    def _on_timesync(self, msg, t_s: float) -> list[Outgoing]:
+        """As ArduPilot's GCS_MAVLINK::handle_timesync: a request (tc1 = 0) is answered with
+        tc1 = the time since boot in ns and ts1 mirrored; a reply (tc1 != 0) is ignored."""
+        if msg.tc1 != 0:
+            return []
+        return [(tm.COMP_AUTOPILOT, mavlink.MAVLink_timesync_message(int(round(t_s * 1e9)),
+                                                                     int(msg.ts1)))]
 
     def _on_set_mode(self, msg, t_s: float) -> list[Outgoing]:
         # ArduPilot answers SET_MODE with a COMMAND_ACK whose command is the message id (11).

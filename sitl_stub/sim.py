@@ -20,6 +20,7 @@ STREAM_CAMERA = 2
 STREAM_LINK_DROP = 3
 STREAM_POSITION = 4
 STREAM_YAW_BIAS = 5
+STREAM_OUTAGE = 6
 
 
 def make_rng(seed: int, stream: int) -> np.random.Generator:
@@ -106,6 +107,28 @@ class Simulation:
         self.yaw_bias = YawBias(noise.yaw_bias_sigma_rad, noise.yaw_bias_tau_s,
                                 make_rng(seed, STREAM_YAW_BIAS))
         self.yaw_noise_rad = self.yaw_rate_noise_rad_s = 0.0
+        # GPS outages: each one's velocity error (drawn from its own stream), and the
+        # autopilot's dead-reckoned position during one (None: the GPS is there)
+        angles = make_rng(seed, STREAM_OUTAGE).uniform(-math.pi, math.pi,
+                                                       len(noise.gps_outages_s))
+        self._outage_vel_ne_mps = [(noise.outage_velocity_bias_mps * math.cos(a),
+                                    noise.outage_velocity_bias_mps * math.sin(a)) for a in angles]
+        self._outage_ne_m: list[float] | None = None
+
+    def gps_fix(self) -> bool:
+        """Whether the autopilot has a GPS fix now (a GPS, and no outage under way)."""
+        noise = self.scenario.noise
+        return noise.has_gps and noise.gps_outage_at(self.t_s) is None
+
+    def reported_velocity_ne_mps(self) -> tuple[float, float]:
+        """LOCAL_POSITION_NED vx, vy: the odometry's, plus an outage's error during one."""
+        vel = (self.odometry.vel_north_mps, self.odometry.vel_east_mps)
+        outage = self.scenario.noise.gps_outage_at(self.t_s) if self.scenario.noise.has_gps \
+            else None
+        if outage is None:
+            return vel
+        bias = self._outage_vel_ne_mps[outage]
+        return vel[0] + bias[0], vel[1] + bias[1]
 
     @property
     def t_s(self) -> float:
@@ -141,13 +164,35 @@ class Simulation:
             self.yaw_rate_noise_rad_s = float(draws[5]) * noise.yaw_rate_sigma_rad_s
         self.odometry = step_odometry(self.odometry, before, self.truth, speed_noise,
                                       heading_noise, vel_noise, self.dt_s)
+        self._dead_reckon_outage()
         self.step_index += 1
         return StepRecord(speed_noise_mps=speed_noise, heading_noise_rad=heading_noise)
 
+    def _dead_reckon_outage(self) -> None:
+        """During an outage the autopilot's position follows its (erring) velocity from the
+        last fix; when the fix returns it resets to it."""
+        noise = self.scenario.noise
+        if not noise.gps_outages_s or not noise.has_gps:
+            return
+        if noise.gps_outage_at(self.t_s) is None:
+            self._outage_ne_m = None
+            return
+        if self._outage_ne_m is None:
+            self._outage_ne_m = list(self._gps_position_ne_m())
+        vel = self.reported_velocity_ne_mps()
+        self._outage_ne_m[0] += vel[0] * self.dt_s
+        self._outage_ne_m[1] += vel[1] * self.dt_s
+
     def reported_position_ne_m(self) -> tuple[float, float]:
-        """LOCAL_POSITION_NED x, y: GPS-like (truth + error) with a GPS, else dead reckoning."""
+        """LOCAL_POSITION_NED x, y: GPS-like (truth + error) with a GPS, else dead reckoning
+        (and during an outage the autopilot's own, from the last fix)."""
         if not self.scenario.noise.has_gps:
             return self.odometry.north_m, self.odometry.east_m
+        if self._outage_ne_m is not None:
+            return self._outage_ne_m[0], self._outage_ne_m[1]
+        return self._gps_position_ne_m()
+
+    def _gps_position_ne_m(self) -> tuple[float, float]:
         err = self.position_error
         return (self.truth.north_m + err.bias_ne_m[0] + err.white_ne_m[0],
                 self.truth.east_m + err.bias_ne_m[1] + err.white_ne_m[1])

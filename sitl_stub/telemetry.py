@@ -129,11 +129,14 @@ def extended_sys_state(landed_state: int, vtol_state: int) -> mavlink.MAVLink_me
 
 
 def gps_raw_int(t_s: float, has_gps: bool, lat_deg: float, lon_deg: float, alt_m: float,
-                sigma_m: float, speed_mps: float, course_rad: float) -> mavlink.MAVLink_message:
+                sigma_m: float, speed_mps: float, course_rad: float,
+                fix: bool = True) -> mavlink.MAVLink_message:
     """GPS_RAW_INT: a 3D fix with the position error's 1-sigma in eph (cm, HDOP x 100 with a
-    1 m UERE) and h_acc (mm); without a GPS, NO_GPS and everything unknown."""
-    if not has_gps:
-        return mavlink.MAVLink_gps_raw_int_message(int(t_s * 1e6), mavlink.GPS_FIX_TYPE_NO_GPS,
+    1 m UERE) and h_acc (mm); without a GPS, NO_GPS and everything unknown; in an outage
+    (``fix`` False), NO_FIX and everything unknown."""
+    if not has_gps or not fix:
+        fix_type = mavlink.GPS_FIX_TYPE_NO_GPS if not has_gps else mavlink.GPS_FIX_TYPE_NO_FIX
+        return mavlink.MAVLink_gps_raw_int_message(int(t_s * 1e6), fix_type,
                                                    0, 0, 0, UINT16_MAX, UINT16_MAX, UINT16_MAX,
                                                    UINT16_MAX, 0)
     eph = int(min(max(round(sigma_m * 100.0), 1), UINT16_MAX - 1))
@@ -173,12 +176,13 @@ def attitude(t_s: float, yaw_rad: float, yaw_rate_rad_s: float) -> mavlink.MAVLi
                                             0.0, 0.0, yaw_rate_rad_s)
 
 
-def local_position_ned(t_s: float, odom: Odometry, north_m: float,
-                       east_m: float) -> mavlink.MAVLink_message:
-    """x, y: the reported position (GPS-like or dead-reckoned); z = -altitude, vz = -climb."""
+def local_position_ned(t_s: float, odom: Odometry, north_m: float, east_m: float,
+                       vel_ne_mps: tuple[float, float] | None = None) -> mavlink.MAVLink_message:
+    """x, y: the reported position (GPS-like or dead-reckoned); vx, vy: ``vel_ne_mps`` (None:
+    the odometry's); z = -altitude, vz = -climb."""
+    vel_north, vel_east = vel_ne_mps or (odom.vel_north_mps, odom.vel_east_mps)
     return mavlink.MAVLink_local_position_ned_message(
-        time_boot_ms(t_s), north_m, east_m, -odom.up_m, odom.vel_north_mps, odom.vel_east_mps,
-        -odom.vel_up_mps)
+        time_boot_ms(t_s), north_m, east_m, -odom.up_m, vel_north, vel_east, -odom.vel_up_mps)
 
 
 def global_position_int(t_s: float, odom: Odometry, north_m: float, east_m: float,

@@ -130,10 +130,23 @@ class NoiseConfig:
     position_sigma_m: float | None = None
     position_bias_sigma_m: float = 0.0
     position_bias_tau_s: float = 300.0
+    # GPS outages ((start_s, duration_s), vehicle time; with a GPS only): no fix meanwhile, the
+    # EKF's position relative only, LOCAL_POSITION_NED x, y dead-reckoned from the last fix with
+    # the velocity, which carries an error of outage_velocity_bias_mps in a seeded direction per
+    # outage (no longer GPS-aided); at the end the position resets to the GPS (as EKF3 does).
+    gps_outages_s: tuple[tuple[float, float], ...] = ()
+    outage_velocity_bias_mps: float = 0.0
 
     @property
     def has_gps(self) -> bool:
         return self.position_sigma_m is not None
+
+    def gps_outage_at(self, t_s: float) -> int | None:
+        """The index of the outage under way at t_s, or None."""
+        for i, (start_s, duration_s) in enumerate(self.gps_outages_s):
+            if start_s <= t_s < start_s + duration_s:
+                return i
+        return None
 
 
 @dataclass(frozen=True)
@@ -424,10 +437,28 @@ def _parse_noise(r: _Reader) -> NoiseConfig:
         position_sigma_m=(None if position_sigma is None
                           else r.number("position_sigma_m", minimum=0)),
         position_bias_sigma_m=r.number("position_bias_sigma_m", 0.0, minimum=0),
-        position_bias_tau_s=r.number("position_bias_tau_s", 300.0, minimum=0, strict_min=True))
+        position_bias_tau_s=r.number("position_bias_tau_s", 300.0, minimum=0, strict_min=True),
+        gps_outages_s=_outages(r),
+        outage_velocity_bias_mps=r.number("outage_velocity_bias_mps", 0.0, minimum=0))
     r.used.add("position_sigma_m")
     r.finish()
     return cfg
+
+
+def _outages(r: _Reader) -> tuple[tuple[float, float], ...]:
+    value = r._get("gps_outages_s", [])
+    if not isinstance(value, list):
+        raise r.error(f"expected a list of [start_s, duration_s], got {_show(value)}",
+                      "gps_outages_s")
+    out = []
+    for i, item in enumerate(value):
+        if not (isinstance(item, list) and len(item) == 2
+                and all(isinstance(v, (int, float)) and not isinstance(v, bool)
+                        and math.isfinite(v) for v in item) and item[0] >= 0 and item[1] > 0):
+            raise r.error(f"expected [start_s >= 0, duration_s > 0], got {_show(item)}",
+                          f"gps_outages_s[{i}]")
+        out.append((float(item[0]), float(item[1])))
+    return tuple(out)
 
 
 def _parse_sensor(r: _Reader) -> SensorConfig:

@@ -9,7 +9,7 @@ RUN_FIELDS = {"seed", "reached_goal", "time_s", "min_clearance_m", "min_surface_
               "collided", "final_goal_distance_m",
               "final_position_error_m", "max_position_error_m", "landmark_errors_m", "urgent_events",
               "path_length_m", "arrived", "arrival_uncertain_t_s", "final_pose_2sigma_m",
-              "estimator_state_s", "estimator_state_changes", "position_fixes", "landmarks"}
+              "estimator_state_s", "estimator_state_changes", "position_fixes", "position_resets", "landmarks"}
 
 
 def simulate(tmp_path, *args):

@@ -33,6 +33,9 @@ def add_parser(sub) -> None:
                         "overrides the config's goal")
     p.add_argument("--tlog", metavar="PATH",
                    help="record every message received and sent (PATH.config.yaml gets the config)")
+    p.add_argument("--tlog-max-mb", type=float, metavar="MB",
+                   help="rotate the tlog at this size: PATH.1 .. PATH.3 kept, the oldest dropped "
+                        "(at most 4 x MB on disk; default: one file, unbounded)")
     p.add_argument("--report", metavar="PATH",
                    help="write the estimated track, map and events as JSON (at start, arrival, exit)")
     p.add_argument("--sysid", type=int, help="pin the vehicle's system id")
@@ -117,9 +120,13 @@ def run(args: argparse.Namespace) -> int:
             config, where if where is not None else overlay_path(resolve_config(args.config)))
     view_feed = parse_address(args.view_feed, "--view-feed") if args.view_feed else None
     try:
+        max_bytes = None if args.tlog_max_mb is None else int(args.tlog_max_mb * 1e6)
+        if max_bytes is not None and max_bytes <= 0:
+            print("companion: --tlog-max-mb must be > 0", file=sys.stderr)
+            return 2
         run_task_tree(run_service(config, args.connect, args.tlog, args.report,
                                   lockstep=args.lockstep, view_feed=view_feed,
-                                  overlay=overlay))
+                                  overlay=overlay, tlog_max_bytes=max_bytes))
     except CompanionError as exc:
         print(f"companion: {exc}", file=sys.stderr)
         return 2

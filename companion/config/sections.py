@@ -17,6 +17,7 @@ from companion.core.avoidance.union import UnionParams
 from companion.core.estimation.consistency import MonitorParams
 from companion.core.estimation.lifecycle import LifecycleParams
 from companion.core.estimation.movers import MoverParams
+from companion.core.estimation.position_reset import PositionResetParams
 from companion.core.estimation.slam_types import AssociationGates, SlamNoise, VelocityNoise
 from companion.core.estimator_options import EstimatorOptions
 
@@ -141,6 +142,10 @@ class EstimatorConfig:
     # (EstimatorOptions.yaw_fix_sigma_rad). 0: white noise only.
     yaw_bias_sigma_deg: float = 0.0
     yaw_bias_tau_s: float = 600.0
+    # velocity_ned: 'ned', the autopilot's NED velocity is independent of its yaw (GPS-aided);
+    # 'yaw', it is a body velocity turned by the autopilot's own yaw (a flow sensor's, or the
+    # stub's unicycle odometry), so it shares the yaw's error (EkfSlam.predict_velocity).
+    velocity_frame: Literal["ned", "yaw"] = "ned"
     position_fusion: Literal["auto", "on", "off"] = "auto"
     position_sigma_m: float | None = 4.4          # null: from GPS_RAW_INT h_acc or HDOP
     position_sigma_per_hdop_m: float = 1.0
@@ -148,6 +153,14 @@ class EstimatorConfig:
     max_hdop: float = 2.0
     min_fix_type: int = 3
     position_timeout_s: float = 2.0        # GPS_RAW_INT / EKF_STATUS_REPORT older: not healthy
+    # Fixes refused in a row for this long (a GPS back after an outage the dead reckoning could
+    # not bridge): the estimate restarts from the fix, map dropped
+    # (core/estimation/position_reset.py; 7 s is EKF3's own gpsRetryTimeNoTAS_ms). null: never.
+    position_reset_after_s: float | None = 7.0
+    # While the autopilot's position is untrusted after having been trusted (a GPS outage), its
+    # velocity is not GPS-aided either: modelled as a constant error of this sigma per axis over
+    # the outage (core/estimation/position_reset.py UnaidedDrift; a choice). 0: the white Q only.
+    unaided_velocity_sigma_mps: float = 0.1
     established_sightings: int = 5
     arrival_tolerance_m: float = 2.0        # pose 2-sigma radius allowed at arrival
     monitor_window_s: float = 10.0
@@ -191,6 +204,10 @@ class EstimatorConfig:
                     "arrival_tolerance_m", "monitor_window_s", "monitor_lost_after_s",
                     "degraded_radius_m", "mover_min_span_s", "mover_speed_sigmas"):
             require_positive(key, getattr(self, key))
+        require(self.unaided_velocity_sigma_mps >= 0.0, "unaided_velocity_sigma_mps",
+                self.unaided_velocity_sigma_mps, "a standard deviation >= 0 (0: off)")
+        if self.position_reset_after_s is not None:
+            require_positive("position_reset_after_s", self.position_reset_after_s)
         require_positive("accept_nis", self.accept_nis)
         require(self.new_landmark_nis >= self.accept_nis, "new_landmark_nis", self.new_landmark_nis,
                 f"a gate >= accept_nis ({self.accept_nis})")
@@ -232,6 +249,9 @@ class EstimatorConfig:
                                max_range_m=self.sensor_max_range_m,
                                tentative_in_guidance=self.tentative_in_guidance)
 
+    def position_reset_params(self) -> PositionResetParams:
+        return PositionResetParams(after_s=self.position_reset_after_s)
+
     def velocity_noise(self) -> VelocityNoise:
         return VelocityNoise(self.vel_north_sigma_mps, self.vel_east_sigma_mps,
                              math.radians(self.yaw_rate_sigma_deg_s))
@@ -251,7 +271,8 @@ class EstimatorConfig:
             slow_factor=self.slow_factor, lifecycle=self.lifecycle_params(),
             range_sigma_k_per_m=self.range_sigma_k_per_m,
             yaw_bias_sigma_rad=math.radians(self.yaw_bias_sigma_deg),
-            yaw_bias_tau_s=self.yaw_bias_tau_s)
+            yaw_bias_tau_s=self.yaw_bias_tau_s,
+            velocity_in_yaw_frame=self.velocity_frame == "yaw")
 
     def mover_params(self) -> MoverParams:
         return MoverParams(strikes_to_mover=self.mover_strikes, probation_s=self.mover_probation_s,

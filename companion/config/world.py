@@ -192,8 +192,25 @@ class NoiseConfig:
     position_sigma_m: float = 0.3             # the GPS-like position: white noise per fix ...
     position_bias_sigma_m: float = 0.5        # ... plus a slow Gauss-Markov bias
     position_bias_tau_s: float = 120.0
+    # GPS outages, [start_s, duration_s] each (multicopter): no fix is fused meanwhile, and the
+    # autopilot's velocity, no longer GPS-aided, carries a constant error of
+    # outage_velocity_bias_mps in a random direction drawn per outage (its dead reckoning drifts).
+    gps_outages_s: tuple[tuple[float, ...], ...] = ()
+    outage_velocity_bias_mps: float = 0.0
+
+    def gps_outage_at(self, t_s: float) -> int | None:
+        """The index of the outage under way at t_s, or None (the GPS is there)."""
+        for i, (start_s, duration_s) in enumerate(self.gps_outages_s):
+            if start_s <= t_s < start_s + duration_s:
+                return i
+        return None
 
     def __post_init__(self) -> None:
+        for i, outage in enumerate(self.gps_outages_s):
+            require(len(outage) == 2 and outage[0] >= 0.0 and outage[1] > 0.0,
+                    f"gps_outages_s[{i}]", list(outage), "[start_s >= 0, duration_s > 0]")
+        require(self.outage_velocity_bias_mps >= 0.0, "outage_velocity_bias_mps",
+                self.outage_velocity_bias_mps, "a speed >= 0")
         require_sigma("speed_sigma_mps", self.speed_sigma_mps)
         require_sigma("heading_change_sigma_deg", self.heading_change_sigma_deg)
         for key in ("velocity_sigma_mps", "yaw_rate_sigma_deg_s", "yaw_sigma_deg",

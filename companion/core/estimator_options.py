@@ -50,6 +50,7 @@ class EstimatorOptions:
     range_sigma_k_per_m: float = 0.0
     yaw_bias_sigma_rad: float = 0.0
     yaw_bias_tau_s: float = 600.0
+    velocity_in_yaw_frame: bool = False     # velocity_ned: see EkfSlam.predict_velocity
 
     def yaw_fix_sigma_rad(self, dt_s: float | None) -> float:
         """The sigma to fuse one autopilot yaw sample with, ``dt_s`` after the last one (None:

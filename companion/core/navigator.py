@@ -239,6 +239,10 @@ class Navigator:
         if dt <= 0.0:
             self._reject("odometry_not_newer")
             return []
+        if self.options.velocity_in_yaw_frame and self._yaw_rad is not None:
+            # the autopilot's yaw is its gyro's integral: its change is the exact turn over the
+            # interval, samples lost on the way included (the rate at one end is not)
+            yaw_rate_rad_s = wrap_angle(yaw_rad - self._yaw_rad) / dt
         last_north, last_east = self._last_velocity or (vel_north_mps, vel_east_mps)
         self._last_velocity = (vel_north_mps, vel_east_mps)
         vel_north_mps = 0.5 * (vel_north_mps + last_north)
@@ -313,10 +317,16 @@ class Navigator:
 
     def predict_velocity(self, vel_north_mps: float, vel_east_mps: float, yaw_rate_rad_s: float,
                          dt_s: float, var_scale: float = 1.0) -> None:
-        """The multicopter model's predict (see EkfSlam.predict_velocity)."""
+        """The multicopter model's predict (see EkfSlam.predict_velocity). With
+        ``options.velocity_in_yaw_frame`` the velocity is taken as turned by the autopilot's own
+        yaw: the yaw state's offset from the last reported yaw (both advance by the same rate)."""
         self._yaw_transfer_log()
+        offset = None
+        if self.options.velocity_in_yaw_frame and self._yaw_rad is not None:
+            offset = wrap_angle(float(self.slam.mean[2]) - self._yaw_rad
+                                - yaw_rate_rad_s * (self.clock_s - self.t_s))
         self.slam.predict_velocity(vel_north_mps, vel_east_mps, yaw_rate_rad_s, dt_s,
-                                   self.options.velocity_noise, var_scale)
+                                   self.options.velocity_noise, var_scale, offset)
         self._yaw_var_mark = float(self.slam.cov[2, 2])   # a predict carries the error over whole
         self.clock_s += max(dt_s, 0.0)
         self._dr_pose = move_velocity(self._dr_pose, vel_north_mps, vel_east_mps, yaw_rate_rad_s,

@@ -26,6 +26,7 @@ import asyncio
 import logging
 import math
 import signal
+import time
 from dataclasses import asdict
 from pathlib import Path
 
@@ -51,6 +52,7 @@ from companion.view import feed
 log = logging.getLogger(__name__)
 
 TLOG_FLUSH_INTERVAL_S = 0.5
+TIMESYNC_FAST_S, TIMESYNC_FAST_COUNT, TIMESYNC_SLOW_S = 1.0, 16, 10.0
 WATCHDOG_INTERVAL_S = 0.2
 # The report keeps the latest hour of track at 10 Hz (about 4 MB); the daemon flies for longer.
 REPORT_TRACK_ROWS = 36_000
@@ -109,6 +111,13 @@ class Service:
         self._rates_said = False
         self.notices = NoticeLimiter(config.safety.statustext_repeat_s,
                                      config.safety.statustext_per_s)
+        # The limiter runs on vehicle time in every mode: off lock-step too the vehicle may run
+        # faster than the wall clock (a stub at --speedup 20), and what a ground station sees
+        # per second of flight must not depend on that. The lock-step clock is one already;
+        # otherwise a clock of its own follows the vehicle's stamps (monotonic across reboots).
+        self.notice_clock = clock if clock is not None else VehicleLinkClock(1.0)
+        self._timesyncs_sent = 0
+        self._last_timesync_s: float | None = None
         if tlog is not None:
             link.on_sent = tlog.write if clock is None else \
                 (lambda _t_us, data: tlog.write(clock.now_us(), data))
@@ -141,6 +150,8 @@ class Service:
         link, pipeline = self.link, self.pipeline
         event = codec.decode(received.msg)
         t_us = received.t_us if self.clock is None else self.clock.observe(event)
+        if self.clock is None and self._is_vehicle(event):
+            self.notice_clock.observe(event)
         if self.tlog is not None:
             self.tlog.write(t_us, bytes(received.msg.get_msgbuf()))
         if self.clock is not None and self.clock.heartbeat_due():
@@ -150,6 +161,11 @@ class Service:
             self.acks.put_nowait(event)
         elif isinstance(event, codec.LocalPosition):
             self._odometry_seen.set()
+        elif isinstance(event, codec.TimeSyncReply) and self._is_vehicle(event):
+            sample = pipeline.timesync.on_reply(event.tc1_ns, event.ts1_ns, time.time_ns())
+            if sample is not None and pipeline.timesync.replies == 1:
+                log.info("TIMESYNC: vehicle clock = ours %+.6f s (round trip %.1f ms)",
+                         sample.offset_ns * 1e-9, sample.round_trip_ns * 1e-6)
         if isinstance(event, (codec.Attitude, codec.LocalPosition)) and pipeline.vehicle == (
                 event.system_id, event.component_id):
             self.rates.on_message(dialect.MSG_ID_ATTITUDE if isinstance(event, codec.Attitude)
@@ -224,18 +240,26 @@ class Service:
             self._send_notice(codec.Notice(severity, judged.describe()))
 
     def _now_us(self) -> int:
-        """The service's time: the link's wall clock, or the vehicle's in lock-step (so what the
-        STATUSTEXT limiter lets through does not depend on how fast the machine runs the loop)."""
+        """The service's time: the link's wall clock, or the vehicle's in lock-step (the
+        STATUSTEXT limiter runs on vehicle time in either mode: ``notice_clock``)."""
         return self.link.now_us() if self.clock is None else self.clock.now_us()
 
+    def _is_vehicle(self, event) -> bool:
+        vehicle = self.pipeline.vehicle
+        return vehicle is None or (getattr(event, "system_id", None),
+                                   getattr(event, "component_id", None)) == vehicle
+
+    def _notice_s(self) -> float:
+        return self.notice_clock.now_us() / 1e6
+
     def _send_notice(self, notice: codec.Notice) -> None:
-        if self.notices.admit(notice.text, self._now_us() / 1e6):
+        if self.notices.admit(notice.text, self._notice_s()):
             self.link.send(codec.statustext(notice))
         else:
             log.debug("STATUSTEXT suppressed: %s", notice.text)
 
     def _check_rates(self) -> None:
-        text = self.notices.take_suppressed_report(self._now_us() / 1e6)
+        text = self.notices.take_suppressed_report(self._notice_s())
         now_s = self.link.now_us() / 1e6
         if text is not None:
             log.warning("%s (STATUSTEXT limit)", text)
@@ -281,6 +305,7 @@ class Service:
         while True:
             await asyncio.sleep(WATCHDOG_INTERVAL_S)
             self._check_rates()
+            self._maybe_timesync(loop.time())
             now_us = self._now_us()
             for output in self.pipeline.mission_tick(now_us / 1e6):
                 await self._dispatch(output)
@@ -298,6 +323,20 @@ class Service:
             elif age_s <= timeout_s and silent:
                 silent = False
                 log.info("vehicle heartbeat back")
+
+    def _maybe_timesync(self, wall_s: float) -> None:
+        """Once a camera stamps in Unix time (and off lock-step, where our clock is the wall's
+        and so the camera's): a TIMESYNC request to the autopilot every TIMESYNC_FAST_S for the
+        first TIMESYNC_FAST_COUNT, then every TIMESYNC_SLOW_S (safety/timesync.py)."""
+        if not self.pipeline.wants_timesync or self.clock is not None \
+                or self.pipeline.vehicle is None:
+            return
+        period = TIMESYNC_FAST_S if self._timesyncs_sent < TIMESYNC_FAST_COUNT else TIMESYNC_SLOW_S
+        if self._last_timesync_s is not None and wall_s - self._last_timesync_s < period:
+            return
+        self._last_timesync_s = wall_s
+        self._timesyncs_sent += 1
+        self.link.send(codec.timesync_request(self.pipeline.timesync.request(time.time_ns())))
 
     async def request_streams(self) -> None:
         streams = self.config.streams
@@ -395,10 +434,12 @@ class Service:
 async def run_service(config: CompanionConfig, url: str, tlog_path: str | Path | None = None,
                       report_path: str | Path | None = None, lockstep: bool = False,
                       view_feed: tuple[str, int] | None = None,
-                      overlay: Overlay | None = None) -> None:
+                      overlay: Overlay | None = None,
+                      tlog_max_bytes: int | None = None) -> None:
     """Run the daemon until SIGINT/SIGTERM. ``config.goal`` must be set. ``view_feed``:
     (host, port) to send the live view's state to (companion/view/feed.py). ``overlay``: where
-    parameters set from a ground station are kept (companion/daemon/param_overlay.py; None: not kept)."""
+    parameters set from a ground station are kept (companion/daemon/param_overlay.py; None: not kept).
+    ``tlog_max_bytes``: rotate the tlog at this size (TlogWriter), None: one file, unbounded."""
     loop = asyncio.get_running_loop()
     clock = None
     if lockstep:
@@ -409,7 +450,7 @@ async def run_service(config: CompanionConfig, url: str, tlog_path: str | Path |
     signing_key = read_signing_key(config.link)
     tlog = None
     if tlog_path is not None:
-        tlog = TlogWriter(tlog_path)
+        tlog = TlogWriter(tlog_path, max_bytes=tlog_max_bytes)
         sidecar_config_path(tlog_path).write_text(yaml.safe_dump(config_to_dict(config)))
     encoder = codec.Encoder(config.link.system_id or PLACEHOLDER_SYSTEM_ID,
                             config.link.component_id, signing_key)

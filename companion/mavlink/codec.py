@@ -71,6 +71,16 @@ def source(msg) -> tuple[int, int]:
 
 # ------------------------------------------------------------------ inbound events
 @dataclass(frozen=True)
+class TimeSyncReply:
+    """TIMESYNC with tc1 != 0: a reply (tc1 the responder's clock, ts1 our request's, both ns).
+    Requests to us (tc1 = 0) are not decoded: we do not answer them."""
+    system_id: int
+    component_id: int
+    tc1_ns: int
+    ts1_ns: int
+
+
+@dataclass(frozen=True)
 class Heartbeat:
     system_id: int
     component_id: int
@@ -348,7 +358,12 @@ def _ekf_status(msg, sysid: int, compid: int) -> EkfStatus:
     return EkfStatus(sysid, compid, int(msg.flags))
 
 
+def _timesync(msg, sysid: int, compid: int) -> TimeSyncReply | None:
+    return TimeSyncReply(sysid, compid, int(msg.tc1), int(msg.ts1)) if msg.tc1 != 0 else None
+
+
 _DECODERS = {
+    "TIMESYNC": _timesync,
     "GPS_RAW_INT": _gps_raw,
     "EKF_STATUS_REPORT": _ekf_status,
     "HEARTBEAT": _heartbeat,
@@ -459,6 +474,11 @@ class Notice:
 def ms_of(t_s: float) -> int:
     """Vehicle time in whole milliseconds, as MAVLink carries it."""
     return int(round(t_s * 1000.0)) & 0xFFFFFFFF
+
+
+def timesync_request(ts1_ns: int) -> mavlink.MAVLink_timesync_message:
+    """A TIMESYNC request: tc1 = 0, ts1 = our clock in ns (safety/timesync.py)."""
+    return mavlink.MAVLink_timesync_message(0, int(ts1_ns))
 
 
 def heartbeat(system_status: int = mavlink.MAV_STATE_ACTIVE) -> mavlink.MAVLink_heartbeat_message:

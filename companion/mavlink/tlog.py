@@ -32,20 +32,50 @@ _MAX_JUMP_US = 86_400 * 1_000_000
 
 
 class TlogWriter:
-    """Appends (timestamp, packet) records; ``flush()`` is called at least once a second."""
+    """Appends (timestamp, packet) records; ``flush()`` is called at least once a second.
 
-    def __init__(self, path: str | Path, flush_interval_s: float = 1.0) -> None:
+    ``max_bytes`` (None: unbounded): once the file holds that much, it is closed at a record
+    boundary and rotated, ``PATH`` -> ``PATH.1`` -> ... -> ``PATH.<keep>`` (the oldest dropped),
+    and a new ``PATH`` begun: at most (keep + 1) x max_bytes on disk for a flight of any length,
+    every file a whole tlog (records are never split) that replay reads on its own.
+    """
+
+    def __init__(self, path: str | Path, flush_interval_s: float = 1.0,
+                 max_bytes: int | None = None, keep: int = 3) -> None:
+        if max_bytes is not None and max_bytes <= 0:
+            raise ValueError(f"tlog max_bytes must be > 0, got {max_bytes}")
+        if keep < 1:
+            raise ValueError(f"tlog keep must be >= 1, got {keep}")
         self.path = Path(path)
         self._file = open(self.path, "wb")          # noqa: SIM115 - closed in close()
         self._flush_interval_s = flush_interval_s
         self._last_flush = time.monotonic()
         self.records = 0
+        self.rotations = 0
+        self._max_bytes, self._keep = max_bytes, keep
+        self._bytes = 0
 
     def write(self, t_us: int, packet: bytes) -> None:
-        self._file.write(_STAMP.pack(t_us) + packet)
+        record = _STAMP.pack(t_us) + packet
+        if self._max_bytes is not None and self._bytes and \
+                self._bytes + len(record) > self._max_bytes:
+            self._rotate()
+        self._file.write(record)
+        self._bytes += len(record)
         self.records += 1
         if time.monotonic() - self._last_flush >= self._flush_interval_s:
             self.flush()
+
+    def _rotate(self) -> None:
+        self._file.close()
+        for k in range(self._keep - 1, 0, -1):
+            older = self.path.with_name(f"{self.path.name}.{k}")
+            if older.exists():
+                older.replace(self.path.with_name(f"{self.path.name}.{k + 1}"))
+        self.path.replace(self.path.with_name(f"{self.path.name}.1"))
+        self._file = open(self.path, "wb")          # noqa: SIM115 - closed in close()
+        self._bytes = 0
+        self.rotations += 1
 
     def flush(self) -> None:
         if not self._file.closed:

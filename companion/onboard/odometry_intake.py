@@ -15,6 +15,7 @@ from companion.config.sections import EstimatorConfig
 from companion.core.estimation.slam_types import UpdateReport
 from companion.core.avoidance.guidance import GuidanceCommand
 from companion.core.navigator import Navigator
+from companion.core.estimation.position_reset import PositionResetWatch, ResetVerdict, UnaidedDrift
 
 log = logging.getLogger(__name__)
 
@@ -68,6 +69,11 @@ class PositionHealth:
         hdop = fix.hdop if fix is not None and fix.hdop is not None else 1.0
         return hdop * config.position_sigma_per_hdop_m
 
+    def aided(self, t_s: float) -> bool:
+        """Whether the autopilot's velocity is GPS-aided, as far as we can tell: 'auto' sees its
+        position trusted; 'on' and 'off' do not judge, so they never call it unaided."""
+        return self.config.position_fusion != "auto" or self._healthy(t_s)
+
     def _healthy(self, t_s: float) -> bool:
         config = self.config
         if self._fix is None or self._status is None:
@@ -79,9 +85,12 @@ class PositionHealth:
 
 
 def absorb(nav: Navigator, config: EstimatorConfig, health: PositionHealth,
-           lpn: codec.LocalPosition, yaw_rad: float, yaw_rate_rad_s: float) -> list[UpdateReport]:
+           lpn: codec.LocalPosition, yaw_rad: float, yaw_rate_rad_s: float,
+           watch: PositionResetWatch | None = None, drift: UnaidedDrift | None = None
+           ) -> tuple[list[UpdateReport], ResetVerdict | None]:
     """One odometry sample into the navigator through the configured motion model, then the
-    autopilot's position if it is trusted. Returns the observation reports it released."""
+    autopilot's position if it is trusted. Returns the observation reports it released and, when
+    a fix was judged, the reset watch's verdict on it (reset: restart the estimate from it)."""
     if config.motion_model == "velocity_ned":
         reports = nav.on_velocity(lpn.t_s, lpn.vel_north_mps, lpn.vel_east_mps, yaw_rad,
                                   yaw_rate_rad_s)
@@ -90,6 +99,9 @@ def absorb(nav: Navigator, config: EstimatorConfig, health: PositionHealth,
         course = math.atan2(lpn.vel_east_mps, lpn.vel_north_mps) \
             if speed >= MIN_COURSE_SPEED_MPS else None
         reports = nav.on_odometry(lpn.t_s, speed, yaw_rad, course)
+    verdict = None
+    if nav.t_s == lpn.t_s and drift is not None:
+        nav.slam.inflate_position(drift.step(lpn.t_s, health.aided(lpn.t_s)))
     if nav.t_s == lpn.t_s:
         sigma = health.sigma_m(lpn.t_s)
         if sigma is not None:
@@ -97,7 +109,9 @@ def absorb(nav: Navigator, config: EstimatorConfig, health: PositionHealth,
             if report is not None and report.action == "outlier":
                 log.warning("autopilot position refused: NIS %.0f (%.1f, %.1f m off)",
                             report.nis, *report.innovation)
-    return reports
+            if report is not None and watch is not None:
+                verdict = watch.on_fix(lpn.t_s, report.action, report.innovation)
+    return reports, verdict
 
 
 def quality(nav: Navigator) -> int:

@@ -56,6 +56,8 @@ from companion.onboard.mission_follow import MissionFollower
 from companion.onboard import fly_to
 from companion.onboard.health import HealthInputs
 from companion.onboard.parameters import ParamChange, ParamRequest, ParamServer, ParamValue
+from companion.core.estimation.position_reset import PositionResetWatch, UnaidedDrift
+from companion.onboard.safety.timesync import TimeSync
 
 log = logging.getLogger(__name__)
 
@@ -146,6 +148,9 @@ class Pipeline:
                                               safety.clock_ahead_window_s,
                                               safety.clock_evidence_messages))
         self.epoch_camera = EpochCamera()
+        # TIMESYNC with the autopilot, asked for by the service once a camera stamps in Unix time
+        self.timesync = TimeSync()
+        self.wants_timesync = False
         self.liveness = Liveness(link.heartbeat_timeout_s, config.failsafe.obstacle_timeout_s,
                                  config.failsafe.require_camera)
         self.gate = SetpointGate(SetpointLimits(
@@ -157,6 +162,9 @@ class Pipeline:
         self._held_position: codec.LocalPosition | None = None
         self._yaw_rate_rad_s = 0.0                  # of the ATTITUDE the last yaw came from
         self.position_health = odometry_intake.PositionHealth(config.estimator)
+        self.position_watch = PositionResetWatch(config.estimator.position_reset_params())
+        self.unaided_drift = UnaidedDrift(config.estimator.unaided_velocity_sigma_mps)
+        self.position_resets: list[dict] = []       # {t_s, offset_m}: estimate restarted from a fix
         self.estimator_notices = odometry_intake.EstimatorNotices()
         self._ap_yaw_rad: float | None = None       # autopilot yaw at the last odometry sample
         self._last_decision_t_s: float | None = None
@@ -490,6 +498,7 @@ class Pipeline:
             self._reset_estimate()
             self.liveness.forget_camera()
             self.epoch_camera.forget()
+            self.timesync.forget()
             out.append(StreamsWanted("vehicle reboot"))
             out.append(codec.Notice(codec.SEVERITY_WARNING, "companion: vehicle reboot, map reset"))
         else:
@@ -507,6 +516,20 @@ class Pipeline:
         self._attitudes.clear()
         self._held_position = None
         self._last_decision_t_s = self._last_pose_out_t_s = None
+
+    def _reset_position(self, lpn: codec.LocalPosition, offset_m: float, reason: str,
+                        out: list[Output]) -> None:
+        """The autopilot's fixes stay refused (a GPS back after a long outage): the estimate
+        restarts from its position at the next sample, the map dropped (README, "GPS outage and
+        return": the landmarks mapped before and during the outage drifted by different amounts,
+        no single shift puts them all right; the camera maps what is in view again)."""
+        log.warning("position reset at %.1f s: %s, %.1f m off; estimate restarted from the "
+                    "autopilot's position, map dropped", lpn.t_s, reason, offset_m)
+        self._count("position_reset")
+        self.position_resets.append({"t_s": lpn.t_s, "offset_m": offset_m})
+        self._reset_estimate()
+        out.append(codec.Notice(codec.SEVERITY_WARNING,
+                                f"companion: position reset ({offset_m:.0f} m), map dropped"))
 
     def _plausible_attitude(self, att: codec.Attitude) -> bool:
         if not (math.isfinite(att.yaw_rad) and abs(att.yaw_rad) <= 2.0 * math.pi
@@ -569,8 +592,12 @@ class Pipeline:
             out.append(NavigatorStarted(lpn.t_s))
         nav = self.navigator
         before = nav.t_s
-        reports = odometry_intake.absorb(nav, self.config.estimator, self.position_health, lpn,
-                                         yaw, self._yaw_rate_rad_s)
+        reports, verdict = odometry_intake.absorb(nav, self.config.estimator, self.position_health,
+                                                  lpn, yaw, self._yaw_rate_rad_s,
+                                                  self.position_watch, self.unaided_drift)
+        if verdict is not None and verdict.reset:
+            self._reset_position(lpn, verdict.offset_m, verdict.reason, out)
+            return
         if nav.t_s == before and before is not None:
             self._count("odometry_not_newer")
             return
@@ -684,6 +711,10 @@ class Pipeline:
         the offset of the first such frame; refused while the vehicle's clock is unknown."""
         if not self.epoch_camera.is_epoch(frame.t_s):
             return frame
+        self.wants_timesync = True
+        synced = self.timesync.vehicle_time_s(frame.t_s)
+        if synced is not None:      # TIMESYNC's offset: no transport delay of one frame in it
+            return dataclasses.replace(frame, t_s=synced)
         first = self.epoch_camera.offset_s is None
         t_s = self.epoch_camera.to_vehicle_time(frame.t_s, self.clock.latest_t_s)
         if t_s is None:
@@ -869,6 +900,7 @@ def snapshot(pipeline: Pipeline) -> dict:
         "arrived": pipeline.arrival_t_s is not None,
         "arrival_t_s": pipeline.arrival_t_s,
         "reset_counter": pipeline.reset_counter,
+        "position_resets": list(pipeline.position_resets),
         "setpoints": pipeline.setpoints,
         "track": track,
         "landmarks": landmarks,

@@ -22,6 +22,7 @@ from companion.core.avoidance.guidance import limit_turn, shape_setpoint
 from companion.core.avoidance.look_at import LookAtParams
 from companion.core.navigator import Navigator
 from companion.sim.truth import TruthWorld
+from companion.core.estimation.position_reset import PositionResetWatch, UnaidedDrift
 
 # A run reaches the goal when the vehicle declares arrival (estimate within goal.radius_m) and the
 # true position is then within goal.radius_m plus this allowance for the estimate's own error
@@ -47,13 +48,17 @@ class RunOutcome:
     obstacles: np.ndarray
 
 
-def make_navigator(scenario: Scenario, strategy: str | None = None) -> Navigator:
+def make_navigator(scenario: Scenario, strategy: str | None = None,
+                   start_pose: np.ndarray | None = None) -> Navigator:
+    """``start_pose`` (north, east, yaw): where the estimate starts, else the world's start."""
     est = scenario.estimator_config()
     if est.sensor_fov_deg is None and est.sensor_max_range_m is None:    # the camera's own view
         est = dataclasses.replace(est, sensor_fov_deg=scenario.sensor.fov_deg,
                                   sensor_max_range_m=scenario.sensor.max_range_m)
     start = scenario.world.start
-    pose = np.array([start.north_m, start.east_m, wrap_angle(start.yaw_rad)])
+    pose = np.array([start.north_m, start.east_m, wrap_angle(start.yaw_rad)]) \
+        if start_pose is None else np.array([start_pose[0], start_pose[1],
+                                             wrap_angle(start_pose[2])])
     pose_cov = np.diag([est.initial_position_sigma_m ** 2, est.initial_position_sigma_m ** 2,
                         math.radians(est.initial_yaw_sigma_deg) ** 2])
     goal = np.array([scenario.world.goal.north_m, scenario.world.goal.east_m])
@@ -133,6 +138,9 @@ def run_once(scenario: Scenario, seed: int, strategy: str | None = None) -> RunO
     # The truth always reports a healthy fix: 'auto' fuses it.
     fuse = est.position_fusion != "off"
     fix_sigma_m = est.position_sigma_m or est.position_sigma_per_hdop_m
+    watch = PositionResetWatch(est.position_reset_params())
+    position_resets = []               # [t_s, offset_m]: the estimate restarted from a fix
+    drift = UnaidedDrift(est.unaided_velocity_sigma_mps if est.position_fusion == "auto" else 0.0)
     reported_yaw = float(nav.slam.mean[2])
     health_s = {state: 0.0 for state in STATES}
     uncertain_arrival_s: float | None = None
@@ -182,7 +190,19 @@ def run_once(scenario: Scenario, seed: int, strategy: str | None = None) -> RunO
                             odo.yaw_rate_rad_s)
             reported_yaw = odo.yaw_rad
             if fuse:
-                nav.correct_position(*odo.position_ne_m, fix_sigma_m)
+                nav.slam.inflate_position(drift.step(truth.t_s, truth.gps_available()))
+            if fuse and truth.gps_available():
+                report = nav.correct_position(*odo.position_ne_m, fix_sigma_m)
+                verdict = None if report is None else \
+                    watch.on_fix(truth.t_s, report.action, report.innovation)
+                if verdict is not None and verdict.reset:
+                    # as the service does (pipeline._reset_position): restarted from the fix,
+                    # the map dropped
+                    position_resets.append([round(truth.t_s, 6), verdict.offset_m])
+                    nav = make_navigator(scenario, strategy,
+                                         np.array([*odo.position_ne_m, odo.yaw_rad]))
+                    nav.on_velocity(truth.t_s, odo.vel_north_mps, odo.vel_east_mps, odo.yaw_rad,
+                                    odo.yaw_rate_rad_s)
         else:
             odo = truth.step(command.speed_mps, gamma)
             nav.predict(odo.speed_mps, odo.heading_change_rad, dt)
@@ -223,6 +243,7 @@ def run_once(scenario: Scenario, seed: int, strategy: str | None = None) -> RunO
         "estimator_state_changes": [[round(h.t_s, 3), h.state, h.reason]
                                     for h in nav.health_changes],
         "position_fixes": dict(nav.position_fixes),
+        "position_resets": position_resets,
         "landmarks": {"final": nav.slam.landmark_count,
                       "final_confirmed": sum(nav.lifecycle.state(k) == "confirmed"
                                              for k in nav.slam.landmark_ids()),

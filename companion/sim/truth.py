@@ -87,6 +87,17 @@ class TruthWorld:
             self.yaw_bias_rad = float(rng.normal(0.0,
                                                  math.radians(scenario.noise.yaw_bias_sigma_deg)))
         self.seen_ids: set[int] = set()          # obstacles ever in the camera's view
+        # GPS outages: the velocity error of each, drawn only when there are outages (so
+        # scenarios without keep their random stream)
+        outages = scenario.noise.gps_outages_s
+        self._outage_vel_ne_mps = [
+            scenario.noise.outage_velocity_bias_mps
+            * np.array([math.cos(a), math.sin(a)])
+            for a in (rng.uniform(-math.pi, math.pi, len(outages)) if outages else ())]
+
+    def gps_available(self) -> bool:
+        """Whether the autopilot has a GPS fix now (noise.gps_outages_s)."""
+        return self.scenario.noise.gps_outage_at(self.t_s) is None
 
     def obstacle_positions(self) -> np.ndarray:
         """True obstacle centres now, (n, 2)."""
@@ -140,6 +151,9 @@ class TruthWorld:
             self._gps_bias_m = gauss_markov_step(self._gps_bias_m, noise.position_bias_sigma_m,
                                                  tau, dt, rng, 2)
         vel = self.vel_ne_mps + rng.normal(0.0, noise.velocity_sigma_mps, 2)
+        outage = noise.gps_outage_at(self.t_s) if noise.gps_outages_s else None
+        if outage is not None:
+            vel = vel + self._outage_vel_ne_mps[outage]
         fix = self.pose[:2] + self._gps_bias_m + rng.normal(0.0, noise.position_sigma_m, 2)
         if noise.yaw_bias_sigma_deg > 0.0:
             self.yaw_bias_rad = float(gauss_markov_step(

@@ -79,7 +79,13 @@ def test_a_scenarios_yaw_bias_reaches_the_truth_and_the_filter_of_a_multicopter(
     options = est.options()
     assert options.yaw_bias_sigma_rad == pytest.approx(math.radians(1.2))
     assert options.yaw_fix_sigma_rad(0.1) > 10 * options.yaw_sigma_rad
-    assert load_scenario("config/scenarios/paper.yaml").estimator_config(
-        flown_as="multicopter").yaw_bias_sigma_deg == 0.0
+    # The paper's unicycle flown on the stub: no compass bias, but its gyro-integrated yaw walks at
+    # the heading-change noise (0.02 deg a 0.1 s sample): a bias that walks as fast, 2 b^2 / tau =
+    # (0.2 deg/s)^2 x 0.1 s, its velocity in that yaw's frame (issue 31)
+    as_copter = load_scenario("config/scenarios/paper.yaml").estimator_config(flown_as="multicopter")
+    assert as_copter.yaw_rate_sigma_deg_s == pytest.approx(0.2)
+    assert 2 * as_copter.yaw_bias_sigma_deg ** 2 / as_copter.yaw_bias_tau_s \
+        == pytest.approx(0.2 ** 2 * 0.1)
+    assert as_copter.velocity_frame == "yaw" and est.velocity_frame == "ned"
     data["noise"]["yaw_bias_tau_s"] = 0
     assert "noise.yaw_bias_tau_s" in error_for(tmp_path, yaml.safe_dump(data))

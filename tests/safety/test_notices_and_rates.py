@@ -86,3 +86,45 @@ def test_in_lockstep_the_notice_limit_runs_on_vehicle_time():
             service._send_notice(notice)
         return len(link.sent), service.notices.suppressed
     assert asyncio.run(body()) == (3, 0)
+
+
+class _Received:
+    def __init__(self, msg) -> None:
+        self.msg, self.t_us = msg, 0
+
+
+def test_off_lockstep_too_the_notice_limit_runs_on_vehicle_time():
+    """A stub free-running at --speedup 20 (or any vehicle whose clock outruns the wall's):
+    the wall clock stands still here while the vehicle's moves; notices a repeat interval apart
+    in vehicle time all go out, and a burst in one vehicle second is still capped."""
+    import asyncio
+
+    from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+    from companion.mavlink import codec
+    from companion.config.service import load_config
+    from companion.daemon.service import Service
+
+    encoder = mavlink.MAVLink(None, srcSystem=1, srcComponent=1)
+
+    async def body():
+        config = load_config("config/companion.yaml")
+        link = _FakeLink()
+        service = Service(config, link, None, None, None)
+        repeat_s = config.safety.statustext_repeat_s
+        notice = codec.Notice(codec.SEVERITY_INFO, "companion: same text")
+        for k in range(3):
+            msg = mavlink.MAVLink_local_position_ned_message(
+                int(k * (repeat_s + 0.5) * 1000), 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+            msg.pack(encoder)
+            await service._handle(_Received(msg))
+            service._send_notice(notice)
+        repeated = len([m for m in link.sent if m.get_type() == "STATUSTEXT"])
+        burst = [codec.Notice(codec.SEVERITY_INFO, f"companion: text {k}") for k in range(10)]
+        for item in burst:
+            service._send_notice(item)
+        return repeated, service.notices.suppressed, config.safety.statustext_per_s
+    repeated, suppressed, per_s = asyncio.run(body())
+    # on the (frozen) wall clock only the first would have gone out; the burst shares its
+    # vehicle second with the third repeat, so per_s - 1 of it go out
+    assert repeated == 3 and suppressed == 10 - (per_s - 1)

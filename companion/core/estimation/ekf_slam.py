@@ -259,10 +259,41 @@ class EkfSlam:
         n22 = p22 + q_turn
         cov[:3, :3] = ((n00, n01, n02), (n01, n11, n12), (n02, n12, n22))
 
+    def _predict_velocity_in_yaw_frame(self, vel_north_mps: float, vel_east_mps: float,
+                                       dt_s: float, offset_rad: float) -> None:
+        """The position part of predict_velocity when the velocity was turned into NED by the
+        autopilot's own yaw (see there): it moves by R(offset) v dt, offset = the yaw state minus
+        that yaw, so F couples the position to the yaw, F = [[1, 0, a], [0, 1, b], [0, 0, 1]],
+        (a, b) = dt (-v'_e, v'_n) with v' = R(offset) v. O(n), as the paper model's predict."""
+        mean, cov, dim = self._mean_buf, self._cov_buf, self._dim
+        c, s = math.cos(offset_rad), math.sin(offset_rad)
+        vn, ve = c * vel_north_mps - s * vel_east_mps, s * vel_north_mps + c * vel_east_mps
+        mean[0] += vn * dt_s
+        mean[1] += ve * dt_s
+        a, b = -ve * dt_s, vn * dt_s
+        if dim > POSE_DIM:                                  # F @ P_vm: rows 0 and 1 take row 2
+            row2 = cov[2, POSE_DIM:dim]
+            cov[0, POSE_DIM:dim] += a * row2
+            cov[1, POSE_DIM:dim] += b * row2
+            cov[POSE_DIM:dim, 0] = cov[0, POSE_DIM:dim]
+            cov[POSE_DIM:dim, 1] = cov[1, POSE_DIM:dim]
+        (p00, p01, p02), (_, p11, p12), (_, _, p22) = cov[:3, :3].tolist()
+        r00, r01, r02 = p00 + a * p02, p01 + a * p12, p02 + a * p22          # rows of F P
+        r11, r12 = p11 + b * p12, p12 + b * p22
+        n00, n01, n11 = r00 + a * r02, r01 + b * r02, r11 + b * r12
+        cov[:3, :3] = ((n00, n01, r02), (n01, n11, r12), (r02, r12, p22))
+
     def predict_velocity(self, vel_north_mps: float, vel_east_mps: float, yaw_rate_rad_s: float,
-                         dt_s: float, noise: VelocityNoise, var_scale: float = 1.0) -> None:
+                         dt_s: float, noise: VelocityNoise, var_scale: float = 1.0,
+                         frame_offset_rad: float | None = None) -> None:
         """Propagate through the multicopter model (geometry.move_velocity): the position moves by
         the autopilot's NED velocity, the yaw by its yaw rate, course and yaw independent.
+
+        ``frame_offset_rad`` None: the velocity is NED as it is (a GPS-aided autopilot's: its
+        error does not depend on the yaw). Else the autopilot turned its body velocity into NED
+        with its own yaw (a flow sensor's, or the stub's unicycle odometry: the velocity shares
+        the yaw's error) and this is the yaw state minus that yaw: the velocity is turned by it,
+        and F couples the position to the yaw error (an O(n) predict).
 
         F is the identity, so the covariance only gains Q on the vehicle's diagonal: O(1), and
         the vehicle-landmark cross-covariance is untouched. ``var_scale`` as in :meth:`predict`
@@ -271,8 +302,12 @@ class EkfSlam:
         if dt_s <= 0.0:
             return
         mean, cov = self._mean_buf, self._cov_buf
-        mean[0] += vel_north_mps * dt_s
-        mean[1] += vel_east_mps * dt_s
+        if frame_offset_rad is not None:
+            self._predict_velocity_in_yaw_frame(vel_north_mps, vel_east_mps, dt_s,
+                                                frame_offset_rad)
+        else:
+            mean[0] += vel_north_mps * dt_s
+            mean[1] += vel_east_mps * dt_s
         mean[2] = wrap_angle(float(mean[2]) + yaw_rate_rad_s * dt_s)
         held = var_scale * dt_s * dt_s
         cov[0, 0] += noise.vel_north_sigma_mps ** 2 * held
@@ -302,6 +337,13 @@ class EkfSlam:
         coef = np.array(((2.0 * s_inv - s_inv * s * s_inv,), (s_inv * innovation,)))
         self._joseph_pass(hp, coef.dot(hp), 1)
         return UpdateReport(action, None, (innovation,), nis, None)
+
+    def inflate_position(self, var_m2: float) -> None:
+        """Add ``var_m2`` to the vehicle's north and east variances (process noise on the pose
+        alone: an error of the odometry the landmarks do not share)."""
+        if var_m2 > 0.0:
+            self._cov_buf[0, 0] += var_m2
+            self._cov_buf[1, 1] += var_m2
 
     def update_position(self, north_m: float, east_m: float, sigma_m: float,
                         gate_nis: float) -> UpdateReport:
