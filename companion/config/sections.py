@@ -192,7 +192,7 @@ class EstimatorConfig:
     tentative_in_guidance: bool = LifecycleParams().tentative_in_guidance
     sensor_fov_deg: float | None = None
     sensor_max_range_m: float | None = None
-    # The bounded map (core/estimation/map_archive.py): a confirmed landmark behind the vehicle,
+    # The bounded map (core/estimation/map_archive.py): a landmark (not tentative) behind the vehicle,
     # farther than archive_behind_m and undetected for archive_unseen_s, is marginalised out of
     # the filter into a read-only archive. null: off (every landmark stays in the filter).
     archive_behind_m: float | None = None

@@ -427,7 +427,7 @@ class Navigator:
 
     def _bound_map(self) -> list[UpdateReport]:
         """The bounded map (core/estimation/map_archive.py): this frame's new landmarks take the place of
-        the archived ones they are; confirmed static landmarks behind, far and unseen leave the
+        the archived ones they are; landmarks (not tentative) behind, far and unseen leave the
         filter (marginalised: their rows and columns deleted) for the archive."""
         slam, archive = self.slam, self.archive
         keys = slam.landmark_ids()
@@ -443,8 +443,9 @@ class Navigator:
         old = stale(slam.pose, slam.landmarks(), np.array([self._last_seen.get(k, self.clock_s)
                                                            for k in keys]), self.clock_s,
                     archive.params)
-        drop = [i for i in np.flatnonzero(old).tolist()
-                if self.lifecycle.state(keys[i]) == "confirmed" and keys[i] not in self._young]
+        # tentatives are left to the lifecycle; a landmark still on probation for motion is
+        # archived too (seen too few times at the view's edge, many never leave probation)
+        drop = [i for i in np.flatnonzero(old).tolist() if not self.lifecycle.is_tentative(keys[i])]
         if not drop:
             return []
         points, covs = slam.landmarks(), slam.landmark_covs()
@@ -453,6 +454,7 @@ class Navigator:
             key = keys[i]
             archive.add(key, points[i], covs[i], self._last_seen.pop(key, self.clock_s), self.clock_s)
             self.lifecycle.forget(key)
+            self._young.pop(key, None)
             self._strikes.pop(key, None)
             self._strike_points.pop(key, None)
             reports.append(UpdateReport("archived", None, None, None, key))
