@@ -51,11 +51,8 @@ class EstimatorOptions:
     range_sigma_k_per_m: float = 0.0
     yaw_bias_sigma_rad: float = 0.0
     yaw_bias_tau_s: float = 600.0
-<<<<<<< HEAD
     velocity_in_yaw_frame: bool = False     # velocity_ned: see EkfSlam.predict_velocity
-=======
     archive: ArchiveParams | None = None   # the bounded map (core/estimation/map_archive.py); None: off
->>>>>>> 3779e5a (Forests and the bounded map (issue 28), squashed for the rebase onto issue 29 stage 2: forest/forest-dense world kinds (companion/sim/forest_worlds.py), config/scenarios/forest.yaml, core/estimation/map_archive.py with estimator.archive_behind_m / archive_unseen_s (off by default), EkfSlam.remove_landmarks, avoidance.headway_first (off by default), the young landmarks' apparent velocity cached per sighting, benchmarks/forest_scale.py, tests/core/test_map_archive.py)
 
     def yaw_fix_sigma_rad(self, dt_s: float | None) -> float:
         """The sigma to fuse one autopilot yaw sample with, ``dt_s`` after the last one (None:
