@@ -6,6 +6,7 @@ import sys
 
 from companion.errors import CompanionError
 from companion.config.scenario import load_scenario
+from companion.sim.forest_worlds import FOREST_SPECS, world_figures
 from companion.sim.worlds import WORLD_KINDS, random_world
 
 DEFAULT_SCENARIO = "config/scenarios/paper.yaml"
@@ -59,14 +60,17 @@ def run(args: argparse.Namespace) -> int:
     scenario = with_speed(scenario, args.speed_mps)
     strategy = args.strategy or scenario.avoidance.strategy
     seeds = range(args.seed, args.seed + args.runs)
-    outcomes = []
+    outcomes, worlds = [], []
     from tqdm import tqdm
     for seed in tqdm(seeds, desc="simulate", unit="run", disable=args.runs < 2 or not sys.stderr.isatty()):
         world = random_world(scenario, args.random_worlds, seed) if args.random_worlds else scenario
+        worlds.append(world)
         outcomes.append(run_once(world, seed, strategy))
     agg = aggregate(outcomes, scenario.avoidance.safety_distance_m)
     agg["strategy"] = strategy
     agg["scenario"] = f"random-{args.random_worlds}" if args.random_worlds else scenario.name
+    if args.random_worlds in FOREST_SPECS:         # the drawn forests' density and spacing
+        agg["forest"] = world_figures(worlds, args.random_worlds)
     report = {"aggregate": agg, "runs": [o.summary for o in outcomes]}
     if args.json:
         write_json(args.json, report)

@@ -16,6 +16,7 @@ from companion.core.avoidance.look_at import GoalLookParams
 from companion.core.avoidance.union import UnionParams
 from companion.core.estimation.consistency import MonitorParams
 from companion.core.estimation.lifecycle import LifecycleParams
+from companion.core.estimation.map_archive import ArchiveParams
 from companion.core.estimation.movers import MoverParams
 from companion.core.estimation.position_reset import PositionResetParams
 from companion.core.estimation.slam_types import AssociationGates, SlamNoise, VelocityNoise
@@ -48,6 +49,9 @@ class AvoidanceConfig:
                                           # flight direction (< half the camera's view;
                                           # core/avoidance/look_at.py goal_look_yaw; None: off)
     goal_look_gain: float = 1.0           # ... by this times the swerve
+    headway_first: bool = False           # velocity choice: a slower heading within 90 deg of the
+                                          # goal before a faster one away from it (forests;
+                                          # core/avoidance/velocity_choice.py)
 
     def __post_init__(self) -> None:
         require_positive("safety_distance_m", self.safety_distance_m)
@@ -79,7 +83,7 @@ class AvoidanceConfig:
     def union_params(self, sensor_fov_rad: float = math.radians(90.0)) -> UnionParams:
         fov = math.radians(self.camera_fov_deg) if self.camera_fov_deg is not None else sensor_fov_rad
         return UnionParams(lookahead_s=self.lookahead_s, hysteresis=self.hysteresis, fov_rad=fov,
-                           gap_margin_m=self.gap_margin_m,
+                           gap_margin_m=self.gap_margin_m, headway_first=self.headway_first,
                            flank_scan_rad=None if self.flank_scan_deg is None
                            else math.radians(self.flank_scan_deg),
                            flank_scan_period_s=self.flank_scan_period_s)
@@ -188,8 +192,18 @@ class EstimatorConfig:
     tentative_in_guidance: bool = LifecycleParams().tentative_in_guidance
     sensor_fov_deg: float | None = None
     sensor_max_range_m: float | None = None
+    # The bounded map (core/estimation/map_archive.py): a landmark (not tentative) behind the vehicle,
+    # farther than archive_behind_m and undetected for archive_unseen_s, is marginalised out of
+    # the filter into a read-only archive. null: off (every landmark stays in the filter).
+    archive_behind_m: float | None = None
+    archive_unseen_s: float = 10.0
 
     def __post_init__(self) -> None:
+        if self.archive_behind_m is not None:
+            require(math.isfinite(self.archive_behind_m) and self.archive_behind_m > 0.0,
+                    "archive_behind_m", self.archive_behind_m, "a distance > 0 m, or null (off)")
+        require(math.isfinite(self.archive_unseen_s) and self.archive_unseen_s > 0.0,
+                "archive_unseen_s", self.archive_unseen_s, "a duration > 0 s")
         for key in ("speed_sigma_mps", "heading_change_sigma_deg", "range_sigma_m",
                     "bearing_sigma_deg", "initial_position_sigma_m", "initial_yaw_sigma_deg",
                     "vel_north_sigma_mps", "vel_east_sigma_mps", "yaw_rate_sigma_deg_s",
@@ -272,7 +286,9 @@ class EstimatorConfig:
             range_sigma_k_per_m=self.range_sigma_k_per_m,
             yaw_bias_sigma_rad=math.radians(self.yaw_bias_sigma_deg),
             yaw_bias_tau_s=self.yaw_bias_tau_s,
-            velocity_in_yaw_frame=self.velocity_frame == "yaw")
+            velocity_in_yaw_frame=self.velocity_frame == "yaw",
+            archive=None if self.archive_behind_m is None
+            else ArchiveParams(self.archive_behind_m, self.archive_unseen_s))
 
     def mover_params(self) -> MoverParams:
         return MoverParams(strikes_to_mover=self.mover_strikes, probation_s=self.mover_probation_s,

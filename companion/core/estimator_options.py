@@ -12,6 +12,7 @@ from companion.core.estimation.consistency import Consistency, MonitorParams, ch
 from companion.core.estimation.slam_types import chi2_2dof_quantile, VelocityNoise
 from companion.core.avoidance.guidance import GuidanceCommand
 from companion.core.estimation.lifecycle import LifecycleParams
+from companion.core.estimation.map_archive import ArchiveParams
 
 MOTION_MODELS = ("paper", "velocity_ned")
 REACTIONS = ("none", "slow", "hold")
@@ -51,6 +52,7 @@ class EstimatorOptions:
     yaw_bias_sigma_rad: float = 0.0
     yaw_bias_tau_s: float = 600.0
     velocity_in_yaw_frame: bool = False     # velocity_ned: see EkfSlam.predict_velocity
+    archive: ArchiveParams | None = None   # the bounded map (core/estimation/map_archive.py); None: off
 
     def yaw_fix_sigma_rad(self, dt_s: float | None) -> float:
         """The sigma to fuse one autopilot yaw sample with, ``dt_s`` after the last one (None:

@@ -23,6 +23,7 @@ from companion.core.estimation.slam_types import (AssociationGates, Observation,
 from companion.core.estimator_options import EstimatorOptions, moderate
 from companion.core.geometry import move, move_velocity, place, wrap_angle
 from companion.core.estimation.lifecycle import Lifecycle, expected_visible
+from companion.core.estimation.map_archive import MapArchive, stale
 from companion.core.estimation.motion_evidence import is_straight_track, shared_yaw_velocity_cov
 from companion.core.estimation.range_noise import with_range_model
 from companion.core.perception.surface_cover import covering_nis
@@ -80,6 +81,9 @@ class _Young:
     yaw_vars: list = field(default_factory=list)
     yaw_logs: list = field(default_factory=list)
     last_obs: Observation | None = None
+    # _apparent_velocity's answer for the first n sightings, (n, velocity, sigma): the lists
+    # only grow, and the answer depends on them alone, so each decision need not redo it
+    apparent: tuple | None = None
 
 
 class Navigator:
@@ -162,6 +166,9 @@ class Navigator:
         self._frame_added: set[int] = set()
         self._frame_taken: set[int] = set()     # ... planned for update by the frame's association
         self._guidance_keys: list = []          # landmark key of each landmark row of obstacles()
+        # the bounded map (off unless configured): landmarks left behind, marginalised out
+        self.archive = MapArchive(options.archive) if options.archive is not None else None
+        self._last_seen: dict[int, float] = {}   # landmark key: last detection (archive only)
 
     # ------------------------------------------------------ timed inputs
     # The live service and the replay feed messages through these two methods, stamped with the
@@ -413,7 +420,45 @@ class Navigator:
             reports.append(report)
         reports.extend(self._judge_young())
         reports.extend(self._judge_lifecycle())
+        if self.archive is not None:
+            reports.extend(self._bound_map())
         self.movers.prune(self.clock_s)
+        return reports
+
+    def _bound_map(self) -> list[UpdateReport]:
+        """The bounded map (core/estimation/map_archive.py): this frame's new landmarks take the place of
+        the archived ones they are; landmarks (not tentative) behind, far and unseen leave the
+        filter (marginalised: their rows and columns deleted) for the archive."""
+        slam, archive = self.slam, self.archive
+        keys = slam.landmark_ids()
+        for key in self._frame_hits | self._frame_added:
+            self._last_seen[key] = self.clock_s
+        if self._frame_added and len(archive):
+            index_of = {key: i for i, key in enumerate(keys)}
+            covs = slam.landmark_covs()
+            points = slam.landmarks()
+            for key in self._frame_added:
+                if key in index_of:
+                    archive.reacquire(key, points[index_of[key]], covs[index_of[key]])
+        old = stale(slam.pose, slam.landmarks(), np.array([self._last_seen.get(k, self.clock_s)
+                                                           for k in keys]), self.clock_s,
+                    archive.params)
+        # tentatives are left to the lifecycle; a landmark still on probation for motion is
+        # archived too (seen too few times at the view's edge, many never leave probation)
+        drop = [i for i in np.flatnonzero(old).tolist() if not self.lifecycle.is_tentative(keys[i])]
+        if not drop:
+            return []
+        points, covs = slam.landmarks(), slam.landmark_covs()
+        reports = []
+        for i in drop:
+            key = keys[i]
+            archive.add(key, points[i], covs[i], self._last_seen.pop(key, self.clock_s), self.clock_s)
+            self.lifecycle.forget(key)
+            self._young.pop(key, None)
+            self._strikes.pop(key, None)
+            self._strike_points.pop(key, None)
+            reports.append(UpdateReport("archived", None, None, None, key))
+        slam.remove_landmarks(drop)
         return reports
 
     def _schmidt(self, key) -> bool:
@@ -721,6 +766,8 @@ class Navigator:
         two frames 0.2 s apart, it mostly cancels in their difference; counted independent,
         two points at 35 m would give +-2.1 m/s where their errors are about 1 m/s). Zero for
         the unicycle, whose points are placed with the dead-reckoned yaw and carry no yaw term."""
+        if young.apparent is not None and young.apparent[0] == len(young.times):
+            return young.apparent[1].copy(), young.apparent[2]
         times = np.array(young.times)
         velocity, sigma = apparent_velocity(times, np.array(young.points), max(young.free_sigmas),
                                             self._dr_speed_sigma_mps(),
@@ -729,6 +776,7 @@ class Navigator:
             shared = shared_yaw_velocity_cov(times, young.ranges, young.directions,
                                              young.yaw_vars, young.yaw_logs)
             sigma = math.sqrt(sigma ** 2 + float(np.linalg.eigvalsh(shared)[-1]))
+        young.apparent = (len(young.times), velocity.copy(), sigma)
         return velocity, sigma
 
     def _track_sigmas(self, young: _Young) -> np.ndarray:

@@ -250,6 +250,8 @@ def run_once(scenario: Scenario, seed: int, strategy: str | None = None) -> RunO
                       "obstacles_seen": len(truth.seen_ids),
                       **nav.lifecycle.counts},
     }
+    if nav.archive is not None:                     # the bounded map, when configured
+        summary["landmarks"].update(in_archive=len(nav.archive), **nav.archive.counts)
     return RunOutcome(summary, trace, nav.slam.landmarks(), nav.slam.landmark_covs(),
                       truth.obstacle_positions())
 

@@ -8,6 +8,7 @@ it. The same seed always gives the same world, so strategies can be compared on 
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from dataclasses import dataclass
 
@@ -17,6 +18,7 @@ from companion.config.scenario import Scenario
 from companion.config.world import Building, Goal, Obstacle, Point, StartPose, Wall, World
 from companion.core import shapes
 from companion.core.avoidance.arc import stopping_distance_m
+from companion.sim.forest_worlds import FOREST_SPECS, forest_world
 from companion.sim.simulation import perception_delay_s
 
 
@@ -310,5 +312,6 @@ def urban_world(base: Scenario, seed: int) -> Scenario:
                                avoidance=avoidance)
 
 
-POST_KINDS = {"gate": gate_world, "trap": trap_world, "urban": urban_world}
+POST_KINDS = {"gate": gate_world, "trap": trap_world, "urban": urban_world,
+              **{kind: functools.partial(forest_world, kind=kind) for kind in FOREST_SPECS}}
 WORLD_KINDS = tuple(KINDS) + tuple(TRAFFIC_KINDS) + tuple(POST_KINDS)

@@ -60,6 +60,14 @@ def print_summary(report: dict, out: TextIO) -> None:
         lines.append(f"arrivals declared: {arrivals['declared']}, uncertain (held): "
                      f"{arrivals['uncertain']}; truth at most "
                      f"{arrivals['max_true_goal_distance_m']:.2f} m from the goal")
+    forest = agg.get("forest")
+    if forest:
+        lines.append(f"forest: {forest['density_per_ha']:.0f} trees per ha drawn (target "
+                     f"{forest['target_density_per_ha']:.0f}, the clearings at start and goal "
+                     f"counted), nearest neighbour mean {forest['mean_nearest_neighbour_m']:.2f} m, "
+                     f"min {forest['min_nearest_neighbour_m']:.2f} m (Poisson disc "
+                     f"{forest['min_spacing_m']:g} m), {forest['corridor_width_m']:g} m x "
+                     f"{forest['leg_m']:g} m")
     nees = agg.get("nees")
     if nees and nees.get("mean") is not None:
         lo, hi = nees["band"]

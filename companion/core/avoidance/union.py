@@ -49,6 +49,8 @@ class UnionParams:
                                       # leave this much between them (None: never)
     flank_scan_rad: float | None = None   # velocity choice: look this far beyond the view's
     flank_scan_period_s: float = 4.0      # edges, each side within the period (flank_scan.py)
+    headway_first: bool = False       # velocity choice: headway at a lower speed before a
+                                      # faster heading away from the goal, static fields too
 
 
 def turn_speed_factor(heading_rad: float, desired_rad: float, fov_rad: float) -> float:

@@ -212,11 +212,12 @@ def choose_velocity(pose: np.ndarray, goal_heading: float, goal_distance: float,
             if reachable(free[:1], speed)[0] >= 0.0:
                 return looked(command(0, speed, "avoid"), speed)
             skip = 1                     # the goal heading is not reachable: scan the others
+        away_last = velocities is not None or union.headway_first
         first, first_forward = _first_passing(free, skip, lambda k: reachable(k, speed),
-                                              offset, velocities is not None)
+                                              offset, away_last)
         if first is None:
             continue
-        if velocities is None or abs(offset[first]) < 0.5 * np.pi:
+        if not away_last or abs(offset[first]) < 0.5 * np.pi:
             return looked(command(first, speed, "avoid"), speed)
         # Flying away from the goal to keep clear of a mover: at full speed beside a crossing
         # mover that heading can stay free for as long as the mover goes on (traffic worlds: an

@@ -858,6 +858,26 @@ class EkfSlam:
             self._id_to_index.pop(removed, None)
         self._id_to_index = {oid: i for i, oid in enumerate(self._index_to_id) if oid is not None}
 
+    def remove_landmarks(self, indices: Sequence[int]) -> None:
+        """Marginalise several landmarks at once (one O(n^2) gather, as remove_landmark for
+        one): their rows and columns go, the rest of the mean and covariance is unchanged."""
+        drop = sorted(set(int(i) for i in indices))
+        if not drop:
+            return
+        if drop[0] < 0 or drop[-1] >= self.landmark_count:
+            raise IndexError(f"no landmark {drop[0] if drop[0] < 0 else drop[-1]}")
+        keep_state = np.ones(self._dim, dtype=bool)
+        for index in drop:
+            s0 = POSE_DIM + LANDMARK_DIM * index
+            keep_state[s0:s0 + LANDMARK_DIM] = False
+        keep = np.flatnonzero(keep_state)
+        self._mean_buf = self._mean_buf[keep]
+        self._cov_buf = np.ascontiguousarray(self._cov_buf[np.ix_(keep, keep)])
+        self._dim = len(keep)
+        gone = set(drop)
+        self._index_to_id = [oid for i, oid in enumerate(self._index_to_id) if i not in gone]
+        self._id_to_index = {oid: i for i, oid in enumerate(self._index_to_id) if oid is not None}
+
     def _grow(self, dim: int) -> None:
         """Reallocate to ``dim`` (O(n^2), once per new landmark; updates stay in place)."""
         old = self._dim
