@@ -48,9 +48,17 @@ class AvoidanceConfig:
                                           # flight direction (< half the camera's view;
                                           # core/avoidance/look_at.py goal_look_yaw; None: off)
     goal_look_gain: float = 1.0           # ... by this times the swerve
+    # Avoidance in 3D (core/avoidance/vertical.py): climb over what costs less to climb than to
+    # fly round. None: off, except on the random worlds of heights (lowwalls, mixed): on.
+    vertical: bool | None = None
+    max_altitude_m: float = 30.0          # no climb above (an altitude fence)
+    min_altitude_m: float = 2.0           # below it, nothing is flown over
 
     def __post_init__(self) -> None:
         require_positive("safety_distance_m", self.safety_distance_m)
+        require_positive("min_altitude_m", self.min_altitude_m)
+        require(self.max_altitude_m > self.min_altitude_m, "max_altitude_m", self.max_altitude_m,
+                f"an altitude above min_altitude_m ({self.min_altitude_m:g} m)")
         require_positive("lookahead_s", self.lookahead_s)
         require(self.hysteresis >= 0.0, "hysteresis", self.hysteresis, "a weight >= 0")
         if self.gap_margin_m is not None:

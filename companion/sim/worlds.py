@@ -18,6 +18,7 @@ from companion.config.world import Building, Goal, Obstacle, Point, StartPose, W
 from companion.core import shapes
 from companion.core.avoidance.arc import stopping_distance_m
 from companion.sim.simulation import perception_delay_s
+from companion.sim.worlds3d import KINDS_3D
 
 
 @dataclass(frozen=True)
@@ -310,5 +311,6 @@ def urban_world(base: Scenario, seed: int) -> Scenario:
                                avoidance=avoidance)
 
 
-POST_KINDS = {"gate": gate_world, "trap": trap_world, "urban": urban_world}
+POST_KINDS = {"gate": gate_world, "trap": trap_world, "urban": urban_world,
+              **KINDS_3D}              # lowwalls, mixed: worlds3d.py
 WORLD_KINDS = tuple(KINDS) + tuple(TRAFFIC_KINDS) + tuple(POST_KINDS)
