@@ -18,6 +18,8 @@ import numpy as np
 
 from companion.config.scenario import Scenario
 from companion.config.world import Goal, Obstacle, StartPose, World
+from companion.core.avoidance.arc import stopping_distance_m
+from companion.sim.simulation import perception_delay_s
 
 POST_SPACING_M = 4.0
 POST_RADIUS_M = 1.0
@@ -35,8 +37,12 @@ TRIES = 2000
 
 
 def _keep_out_m(base: Scenario) -> float:
-    from companion.sim.worlds import start_stopping_m      # worlds.py registers these kinds
-    return base.avoidance.safety_distance_m + max(15.0, start_stopping_m(base))
+    """As the other kinds': d beyond the reaction and braking distance (worlds.start_stopping_m,
+    written out here: worlds.py imports this module to register its kinds)."""
+    stopping = stopping_distance_m(base.vehicle.speed_mps,
+                                   perception_delay_s(base.estimator_config(), base),
+                                   base.vehicle.max_accel_mps2)
+    return base.avoidance.safety_distance_m + max(15.0, stopping)
 
 
 def _finish(base: Scenario, name: str, leg: float, obstacles: list[Obstacle]) -> Scenario:
