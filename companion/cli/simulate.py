@@ -11,7 +11,8 @@ from companion.sim.worlds import WORLD_KINDS, random_world
 
 DEFAULT_SCENARIO = "config/scenarios/paper.yaml"
 from companion.tools.report import print_summary, write_json
-from companion.sim.simulation import aggregate, run_once, with_position_fusion, with_speed
+from companion.sim.simulation import (aggregate, run_once, with_position_fusion, with_speed,
+                                      with_vertical)
 
 
 def add_parser(sub) -> None:
@@ -33,6 +34,10 @@ def add_parser(sub) -> None:
     p.add_argument("--speed-mps", type=_positive_float, default=None,
                    help="fly at this cruise speed instead of the scenario's vehicle.speed_mps "
                         "(random worlds give the mission time to match)")
+    p.add_argument("--vertical", choices=("on", "off"), default=None,
+                   help="avoidance in 3D or the 2D law, whatever the scenario's "
+                        "avoidance.vertical says (default: the scenario's; the random worlds of "
+                        "heights, lowwalls and mixed, turn it on unless the base says false)")
     p.add_argument("--json", metavar="PATH", help="write {aggregate, runs} as JSON")
     p.add_argument("--plot", metavar="PATH", help="draw the first run as a PNG (paper's Figure 4)")
     p.set_defaults(handler=run)
@@ -58,6 +63,7 @@ def run(args: argparse.Namespace) -> int:
     scenario = with_position_fusion(load_scenario(args.scenario or DEFAULT_SCENARIO),
                                     args.position_fusion)
     scenario = with_speed(scenario, args.speed_mps)
+    scenario = with_vertical(scenario, None if args.vertical is None else args.vertical == "on")
     strategy = args.strategy or scenario.avoidance.strategy
     seeds = range(args.seed, args.seed + args.runs)
     outcomes, worlds = [], []

@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from companion.config.checks import require_positive
-from companion.config.loader import FieldError, build, read_yaml
+from companion.config.loader import FieldError, build, read_yaml, require
 from companion.config.sections import AvoidanceConfig, EstimatorConfig
 from companion.config.world import NoiseConfig, SensorConfig, VehicleConfig, World
 from companion.core import shapes
@@ -32,6 +32,18 @@ class MissionConfig:
 
 
 @dataclass(frozen=True)
+class PerceptionConfig:
+    """What the companion makes of points with a z (core/perception/vertical_extent.py): a point
+    at most ``ground_margin_m`` above the ground (the vehicle's altitude minus the point's depth
+    below the camera) is the floor, counted and never a landmark."""
+    ground_margin_m: float = 0.5
+
+    def __post_init__(self) -> None:
+        require(math.isfinite(self.ground_margin_m) and self.ground_margin_m >= 0.0,
+                "ground_margin_m", self.ground_margin_m, "a margin >= 0 m")
+
+
+@dataclass(frozen=True)
 class Scenario:
     name: str
     world: World
@@ -41,8 +53,12 @@ class Scenario:
     avoidance: AvoidanceConfig
     mission: MissionConfig = field(default_factory=MissionConfig)
     estimator: EstimatorConfig | None = None
+    perception: PerceptionConfig = field(default_factory=PerceptionConfig)
 
     def __post_init__(self) -> None:
+        if self.avoidance.vertical and self.sensor.form != "centres":
+            raise FieldError("avoidance.vertical", "the depth sectors carry no z yet: vertical "
+                             "avoidance needs sensor.form centres")
         goal = self.world.goal
         for i, obs in enumerate(self.world.obstacles):
             if obs.moving:

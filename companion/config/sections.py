@@ -52,9 +52,17 @@ class AvoidanceConfig:
     headway_first: bool = False           # velocity choice: a slower heading within 90 deg of the
                                           # goal before a faster one away from it (forests;
                                           # core/avoidance/velocity_choice.py)
+    # Avoidance in 3D (core/avoidance/vertical.py): climb over what costs less to climb than to
+    # fly round. None: off, except on the random worlds of heights (lowwalls, mixed): on.
+    vertical: bool | None = None
+    max_altitude_m: float = 30.0          # no climb above (an altitude fence)
+    min_altitude_m: float = 2.0           # below it, nothing is flown over
 
     def __post_init__(self) -> None:
         require_positive("safety_distance_m", self.safety_distance_m)
+        require_positive("min_altitude_m", self.min_altitude_m)
+        require(self.max_altitude_m > self.min_altitude_m, "max_altitude_m", self.max_altitude_m,
+                f"an altitude above min_altitude_m ({self.min_altitude_m:g} m)")
         require_positive("lookahead_s", self.lookahead_s)
         require(self.hysteresis >= 0.0, "hysteresis", self.hysteresis, "a weight >= 0")
         if self.gap_margin_m is not None:

@@ -15,6 +15,19 @@ from companion.config.loader import FieldError, require
 from companion.core import shapes
 
 
+def _vertical_extent(height_m: float | None, base_m: float) -> None:
+    """An obstacle's vertical extent: the top at ``height_m`` above the ground (None: unbounded,
+    the 2D world's infinite column), the bottom at ``base_m`` (an overhang, a bridge deck)."""
+    require(math.isfinite(base_m), "base_m", base_m, "a finite height in metres")
+    require(base_m >= 0.0, "base_m", base_m, "a height >= 0 m above the ground")
+    if height_m is None:
+        return
+    require(math.isfinite(height_m), "height_m", height_m, "a finite height in metres")
+    require(height_m > 0.0, "height_m", height_m, "a height > 0 m above the ground")
+    require(height_m > base_m, "height_m", height_m,
+            f"a top above the obstacle's base_m ({base_m:g} m)")
+
+
 @dataclass(frozen=True)
 class GeoOrigin:
     lat_deg: float = -35.363261
@@ -32,6 +45,11 @@ class StartPose:
     north_m: float
     east_m: float
     yaw_deg: float = 0.0
+    alt_m: float = 10.0          # above the ground: the cruise altitude (vertical avoidance)
+
+    def __post_init__(self) -> None:
+        require(math.isfinite(self.alt_m) and self.alt_m > 0.0, "alt_m", self.alt_m,
+                "an altitude > 0 m above the ground")
 
     @property
     def yaw_rad(self) -> float:
@@ -56,10 +74,13 @@ class Obstacle:
     radius_m: float
     vel_north_mps: float = 0.0
     vel_east_mps: float = 0.0
+    height_m: float | None = None    # top above the ground (None: unbounded, as in 2D)
+    base_m: float = 0.0              # bottom above the ground (an overhang: a bridge deck)
 
     def __post_init__(self) -> None:
         require(0 <= self.id < 65535, "id", self.id, "an integer in [0, 65534] (65535 means 'no id')")
         require_positive("radius_m", self.radius_m)
+        _vertical_extent(self.height_m, self.base_m)
 
     @property
     def moving(self) -> bool:
@@ -85,10 +106,13 @@ class Wall:
     start: Point
     end: Point
     thickness_m: float
+    height_m: float | None = None    # as Obstacle's
+    base_m: float = 0.0
 
     def __post_init__(self) -> None:
         _shape_id(self.id)
         require_positive("thickness_m", self.thickness_m)
+        _vertical_extent(self.height_m, self.base_m)
         if math.hypot(self.end.north_m - self.start.north_m,
                       self.end.east_m - self.start.east_m) <= shapes.DEGENERATE_M:
             raise FieldError("end", "zero-length wall: end is the same point as start")
@@ -105,9 +129,12 @@ class Building:
     Seen by a depth camera only, as a wall is."""
     id: int
     corners: tuple[Point, ...]
+    height_m: float | None = None    # as Obstacle's
+    base_m: float = 0.0
 
     def __post_init__(self) -> None:
         _shape_id(self.id)
+        _vertical_extent(self.height_m, self.base_m)
         problem = shapes.convexity_problem(self._raw())
         if problem is not None:
             raise FieldError("corners", problem)
@@ -165,9 +192,13 @@ class VehicleConfig:
     max_accel_mps2: float = 2.5
     dt_s: float = 0.1
     kind: Literal["unicycle", "multicopter"] = "unicycle"
+    # the truth vehicle's climb and sink limit; simulate's vertical avoidance is bounded by it
+    # (the service's would be by safety.max_vertical_speed_mps, of the same default)
+    max_vertical_speed_mps: float = 2.5
 
     def __post_init__(self) -> None:
-        for key in ("speed_mps", "max_turn_rate_deg_s", "max_accel_mps2", "dt_s"):
+        for key in ("speed_mps", "max_turn_rate_deg_s", "max_accel_mps2", "dt_s",
+                    "max_vertical_speed_mps"):
             require_positive(key, getattr(self, key))
         require(self.speed_mps <= PLAUSIBLE_SPEED_MPS, "speed_mps", self.speed_mps,
                 f"a multicopter speed <= {PLAUSIBLE_SPEED_MPS:g} m/s")
@@ -197,6 +228,7 @@ class NoiseConfig:
     # outage_velocity_bias_mps in a random direction drawn per outage (its dead reckoning drifts).
     gps_outages_s: tuple[tuple[float, ...], ...] = ()
     outage_velocity_bias_mps: float = 0.0
+    altitude_sigma_m: float = 0.1             # the reported altitude (barometer), per sample
 
     def gps_outage_at(self, t_s: float) -> int | None:
         """The index of the outage under way at t_s, or None (the GPS is there)."""
@@ -214,7 +246,8 @@ class NoiseConfig:
         require_sigma("speed_sigma_mps", self.speed_sigma_mps)
         require_sigma("heading_change_sigma_deg", self.heading_change_sigma_deg)
         for key in ("velocity_sigma_mps", "yaw_rate_sigma_deg_s", "yaw_sigma_deg",
-                    "yaw_bias_sigma_deg", "position_sigma_m", "position_bias_sigma_m"):
+                    "yaw_bias_sigma_deg", "position_sigma_m", "position_bias_sigma_m",
+                    "altitude_sigma_m"):
             require(getattr(self, key) >= 0.0, key, getattr(self, key), "a standard deviation >= 0")
         require_positive("position_bias_tau_s", self.position_bias_tau_s)
         require_positive("yaw_bias_tau_s", self.yaw_bias_tau_s)
@@ -239,9 +272,18 @@ class SensorConfig:
     # range_sigma_m + range_sigma_k_per_m * r^2, k = disparity sigma / (focal px * baseline)
     # (config/scenarios/realistic.yaml gives a real camera's figures). 0: constant range_sigma_m.
     range_sigma_k_per_m: float = 0.0
+    # The vertical field of view (Intel's D455: 58 deg): an obstacle wholly above or below it is
+    # not seen; its points carry their z (the centres form: the highest and lowest seen).
+    vfov_deg: float = 58.0
+    sees_ground: bool = False            # returns from the floor within range (a pitched camera)
+    ground_points_per_frame: int = 4     # ... this many per frame, where the view meets the floor
 
     def __post_init__(self) -> None:
         require(0.0 < self.fov_deg <= 360.0, "fov_deg", self.fov_deg, "a field of view in (0, 360]")
+        require(0.0 < self.vfov_deg < 180.0, "vfov_deg", self.vfov_deg,
+                "a vertical field of view in (0, 180)")
+        require(0 <= self.ground_points_per_frame <= 1000, "ground_points_per_frame",
+                self.ground_points_per_frame, "an integer in [0, 1000]")
         require_positive("max_range_m", self.max_range_m)
         require_positive("rate_hz", self.rate_hz)
         require_sigma("range_sigma_m", self.range_sigma_m)
@@ -257,6 +299,10 @@ class SensorConfig:
     @property
     def fov_rad(self) -> float:
         return math.radians(self.fov_deg)
+
+    @property
+    def vfov_rad(self) -> float:
+        return math.radians(self.vfov_deg)
 
     @property
     def bearing_sigma_rad(self) -> float:

@@ -35,6 +35,9 @@ from companion.core.estimation.movers import (MoverParams, MoverTracker, apparen
                                    mover_spread, start_evidence, world_measurement)
 from companion.core.avoidance.union import UnionParams, guide_union
 from companion.core.avoidance.velocity_choice import guide_flyable
+from companion.core.avoidance import vertical as vertical3d
+from companion.core.perception.vertical_extent import (ExtentParams, PointHeights, VerticalExtent,
+                                                       classify, in_vertical_view)
 
 # An observation frame stamped at most this much after the last odometry is processed at once
 # (the pose is that close); a later one waits for the odometry that covers its time.
@@ -96,12 +99,18 @@ class Navigator:
                  options: EstimatorOptions = EstimatorOptions(),
                  limits: VehicleLimits | None = None,
                  look_at: LookAtParams | None = None,
-                 goal_look: GoalLookParams | None = None) -> None:
+                 goal_look: GoalLookParams | None = None,
+                 extent: ExtentParams | None = None,
+                 vertical: vertical3d.VerticalParams | None = None) -> None:
         """``limits``: the union law chooses velocities the vehicle can fly (arc.py). ``look_at``
         (a multicopter's only): its nose may turn toward a tracked mover it cannot see
         (core/avoidance/look_at.py); the command then carries ``yaw_rad``. ``goal_look`` (a multicopter's
         only): while it watches nothing, its nose turns toward the goal's direction when the
-        velocity swerves (core/avoidance/look_at.py goal_look_yaw)."""
+        velocity swerves (core/avoidance/look_at.py goal_look_yaw). ``extent``: observations with
+        a z are judged against the altitude (``on_altitude``): the floor and bad points dropped
+        and counted (``points``), each landmark's vertical extent kept (``extents``).
+        ``vertical``: avoidance in 3D (core/avoidance/vertical.py); ``vertical_choice`` holds the
+        last decision's plan and climb rate."""
         if strategy not in STRATEGIES:
             raise ValueError(f"unknown strategy {strategy!r}")
         self.slam = EkfSlam(start_pose, start_pose_cov, noise, gates)
@@ -169,6 +178,12 @@ class Navigator:
         # the bounded map (off unless configured): landmarks left behind, marginalised out
         self.archive = MapArchive(options.archive) if options.archive is not None else None
         self._last_seen: dict[int, float] = {}   # landmark key: last detection (archive only)
+        self.extent_params = extent
+        self.vertical = vertical
+        self.altitude_m: float | None = None    # above the ground, the autopilot's
+        self.extents: dict = {}                 # landmark key -> VerticalExtent
+        self.points = {"ground": 0, "bad_z": 0}
+        self.vertical_choice: vertical3d.VerticalChoice | None = None
 
     # ------------------------------------------------------ timed inputs
     # The live service and the replay feed messages through these two methods, stamped with the
@@ -387,6 +402,39 @@ class Navigator:
         self.position_fixes["fused" if report.action == "position" else "refused"] += 1
         return report
 
+    def on_altitude(self, altitude_m: float) -> None:
+        """The vehicle's altitude above the ground (LOCAL_POSITION_NED -z, or the truth's);
+        a non-finite one is ignored (heights are then not judged)."""
+        if math.isfinite(altitude_m):
+            self.altitude_m = float(altitude_m)
+
+    def _heights(self, observations: list[Observation]) -> tuple[list, list]:
+        """The observations that may become landmarks, and their heights (None: no z): the
+        floor's points and those with a bad z dropped and counted."""
+        if self.extent_params is None or self.altitude_m is None:
+            return list(observations), [None] * len(observations)
+        kept, heights = [], []
+        for obs in observations:
+            verdict = classify(obs.top_down_m, obs.bottom_down_m, obs.range_m, self.altitude_m,
+                               self.extent_params)
+            if verdict == "ground":
+                self.points["ground"] += 1
+                continue
+            if verdict == "bad":
+                self.points["bad_z"] += 1
+                continue
+            kept.append(obs)
+            heights.append(verdict)
+        return kept, heights
+
+    def _note_extent(self, report: UpdateReport, heights: PointHeights | None) -> None:
+        if heights is None or report.action not in ("updated", "added") \
+                or report.landmark_index is None:
+            return
+        key = self.slam.landmark_ids()[report.landmark_index]
+        if key is not None:
+            self.extents.setdefault(key, VerticalExtent()).update(heights)
+
     def observe(self, observations: list[Observation]) -> list[UpdateReport]:
         """One camera frame: static landmarks update the SLAM state, movers only their tracks.
 
@@ -404,6 +452,7 @@ class Navigator:
             self.scan.mark(self.clock_s, float(self.slam.pose[2]))
         self._frame_hits, self._frame_near, self._frame_added = set(), set(), set()
         noise = self.slam.noise
+        observations, heights = self._heights(observations)
         observations = with_range_model(observations, noise.range_sigma_m,
                                         self.options.range_sigma_k_per_m, noise.bearing_sigma_rad)
         anonymous = [obs for obs in observations if obs.obstacle_id is None]
@@ -413,10 +462,11 @@ class Navigator:
                      self.slam, np.array([[o.range_m, o.bearing_rad] for o in anonymous]),
                      meas_covs=[o.meas_cov_array() for o in anonymous]))}
         self._frame_taken = {key for action, key in plans.values() if action == "update"}
-        for obs in observations:
+        for obs, height in zip(observations, heights):
             report = self._observe_one(obs, used, plans.get(id(obs)))
             if report.action in ("updated", "added") and report.landmark_index is not None:
                 used.add(report.landmark_index)
+                self._note_extent(report, height)
             reports.append(report)
         reports.extend(self._judge_young())
         reports.extend(self._judge_lifecycle())
@@ -477,6 +527,13 @@ class Navigator:
         slam = self.slam
         keys = slam.landmark_ids()
         visible = expected_visible(slam.pose, slam.landmarks(), self.lifecycle.params)
+        if self.extents and self.altitude_m is not None:
+            # a landmark whose extent lies wholly above or below the vertical view is not missed
+            ranges = np.hypot(*(slam.landmarks() - slam.pose[:2]).T)
+            visible = visible & np.array([
+                key not in self.extents or in_vertical_view(
+                    self.extents[key], float(r), self.altitude_m, self.extent_params)
+                for key, r in zip(keys, ranges)], dtype=bool).reshape(visible.shape)
         verdict = self.lifecycle.judge(self.clock_s, keys, visible, self._frame_hits,
                                        self._frame_near, self._frame_added)
         reports = []
@@ -1004,34 +1061,102 @@ class Navigator:
             self._looked.append((heading, swing))
         return swing
 
-    def decide(self, t_s: float) -> tuple[GuidanceCommand, UrgencyChange | None]:
-        """Guidance on the current estimate, and the urgency change it implies, if any."""
-        pose = self._flight_pose(self.slam.pose)
+    def _decide_2d(self, pose: np.ndarray, t_s: float, skip: frozenset = frozenset()):
+        """The horizontal law's command with the landmark rows ``skip`` (flown over or under)
+        left out, its movers, and what to commit if it is flown (the union law's side and
+        commitment). Without ``skip``: the 2D decision as it always was."""
         young_movers = self.strategy == "union" and self.limits is not None
         obstacles, velocities, rel_covs, movers = self.obstacles(young_movers)
         self._young_movers = []
         if self.strategy == "apf":
-            command = guide_apf(pose, self.goal, obstacles, self.params)
-        elif self.strategy == "union":
+            obstacles, _, _, _ = self._drop_rows(skip, obstacles)
+            return guide_apf(pose, self.goal, obstacles, self.params), movers, lambda c: None
+        if self.strategy == "union":
             growth = mover_growth(movers, len(obstacles), self.union.mover_sigmas)
             motion = self._motion(pose)
             if motion is not None:
                 obstacles, velocities, growth = self._young_motion(obstacles, velocities, growth)
+            spread = self._spread(movers, len(obstacles), motion)
+            if skip:
+                obstacles, velocities, rel_covs, (growth, spread) = self._drop_rows(
+                    skip, obstacles, velocities, rel_covs, growth, spread)
             goal_distance = float(np.hypot(*(self.goal - pose[:2])))
             reach = None if motion is None else self.commitment.goal_reach_m(
                 goal_distance, self.params.safety_distance_m, self.union.sensor_range_m or 0.0)
             inputs = GuidanceInputs(
                 pose, self.goal, obstacles, rel_covs, self._last_heading,
                 self.commitment.side if motion is not None else self._side, velocities, motion,
-                growth, reach or None, self.seen, self._spread(movers, len(obstacles), motion),
+                growth, reach or None, self.seen, spread,
                 self._look_for if self.scan is not None else None)
             guide = guide_union if motion is None else guide_flyable
             command = guide(inputs, self.params, self.union)
-            self._side = command.side
-            if motion is not None and command.mode != "arrived":
-                self.commitment = self.commitment.after(command.side, goal_distance)
+
+            def commit(chosen: GuidanceCommand) -> None:
+                self._side = chosen.side
+                if motion is not None and chosen.mode != "arrived":
+                    self.commitment = self.commitment.after(chosen.side, goal_distance)
+            return command, movers, commit
+        obstacles, velocities, rel_covs, _ = self._drop_rows(skip, obstacles, velocities, rel_covs)
+        return (guide_cone(pose, self.goal, obstacles, rel_covs, self.params, t_s, velocities),
+                movers, lambda c: None)
+
+    def _drop_rows(self, skip: frozenset, obstacles: np.ndarray, velocities=None, rel_covs=None,
+                   *per_row):
+        """The guidance arrays without the landmark rows ``skip``; ``_guidance_keys`` follows
+        (the urgency's key names the rows left). ``per_row``: more (n,) arrays or None."""
+        if not skip:
+            return obstacles, velocities, rel_covs, per_row
+        keep = [i for i in range(len(obstacles)) if i not in skip]
+        self._guidance_keys = [k for i, k in enumerate(self._guidance_keys) if i not in skip]
+        pick = (lambda a: None if a is None else a[keep])
+        return (obstacles[keep], pick(velocities), pick(rel_covs),
+                tuple(pick(a) for a in per_row))
+
+    def _decide_3d(self, pose: np.ndarray, t_s: float):
+        """Each altitude plan's horizontal command, scored (core/avoidance/vertical.py); the
+        least costly one's command, with ``vertical_choice`` set."""
+        params = self.vertical
+        obstacles, _, _, _ = self.obstacles(self.strategy == "union" and self.limits is not None)
+        extents = [self._extent_of(key) for key in self._guidance_keys]
+        extents += [vertical3d.UNBOUNDED] * (len(obstacles) - len(extents))
+        alt = float(self.altitude_m)
+        to_goal = self.goal - pose[:2]
+        ahead = to_goal / max(float(np.hypot(*to_goal)), 1e-9)
+        scored, results = [], []
+        for plan in vertical3d.plans(pose[:2], alt, obstacles, extents, params, ahead):
+            command, movers, commit = self._decide_2d(pose, t_s, plan.skip)
+            rows = [i for i in range(len(obstacles)) if i not in plan.skip
+                    and float(np.hypot(*(obstacles[i] - pose[:2]))) <= params.reach_m]
+            hold = command.mode in ("hold", "stop", "escape") or command.mode.startswith("hold")
+            detour = vertical3d.detour_m(pose[:2], self.goal, command.heading_rad, obstacles,
+                                         rows) + (0.0 if command.mode != "slow" else 20.0)
+            scored.append((plan, vertical3d.plan_cost_m(plan, alt, detour, hold, params)))
+            results.append((command, movers, commit, plan.skip))
+        last = self.vertical_choice.plan.kind if self.vertical_choice is not None else None
+        choice = vertical3d.choose(scored, last, alt, params)
+        self.vertical_choice = choice
+        command, movers, commit, skip = results[[p for p, _ in scored].index(choice.plan)]
+        if len(scored) > 1:        # the guidance keys of the plan flown (the last evaluated's now)
+            self.obstacles(self.strategy == "union" and self.limits is not None)
+            self._drop_rows(skip, obstacles)
+        return command, movers, commit
+
+    def _extent_of(self, key) -> "vertical3d.Extent":
+        extent = self.extents.get(key)
+        if extent is None or extent.top_m is None:
+            return vertical3d.Extent(None, 0.0, 0.0 if extent is None else extent.bottom_m,
+                                     extent is not None and extent.bottom_var_m2 is not None)
+        return vertical3d.Extent(extent.top_m, extent.top_sigma_m or 0.0, extent.bottom_m,
+                                 extent.bottom_var_m2 is not None)
+
+    def decide(self, t_s: float) -> tuple[GuidanceCommand, UrgencyChange | None]:
+        """Guidance on the current estimate, and the urgency change it implies, if any."""
+        pose = self._flight_pose(self.slam.pose)
+        if self.vertical is not None and self.altitude_m is not None:
+            command, movers, commit = self._decide_3d(pose, t_s)
         else:
-            command = guide_cone(pose, self.goal, obstacles, rel_covs, self.params, t_s, velocities)
+            command, movers, commit = self._decide_2d(pose, t_s)
+        commit(command)
         self._last_heading = command.heading_rad
         if self._looked:
             self._last_heading = self._looked[-1][0]     # the choice's, not a look's

@@ -21,6 +21,8 @@ from companion.core.geometry import wrap_angle
 from companion.core.avoidance.guidance import limit_turn, shape_setpoint
 from companion.core.avoidance.look_at import LookAtParams
 from companion.core.navigator import Navigator
+from companion.core.avoidance.vertical import VerticalParams
+from companion.core.perception.vertical_extent import ExtentParams
 from companion.sim.truth import TruthWorld
 from companion.core.estimation.position_reset import PositionResetWatch, UnaidedDrift
 
@@ -28,6 +30,7 @@ from companion.core.estimation.position_reset import PositionResetWatch, Unaided
 # true position is then within goal.radius_m plus this allowance for the estimate's own error
 # (the paper's "error less than 2 m").
 ARRIVAL_ALLOWANCE_M = 2.0
+VERTICAL_STREAM = 0xA17         # the truth's heights' own random source: [seed, this]
 
 
 @dataclass
@@ -69,7 +72,47 @@ def make_navigator(scenario: Scenario, strategy: str | None = None,
                                          perception_delay_s=perception_delay_s(est, scenario)),
                      mover_params=est.mover_params(), options=est.options(),
                      limits=vehicle_limits(scenario), look_at=look_at_params(scenario),
-                     goal_look=scenario.goal_look_params())
+                     goal_look=scenario.goal_look_params(), extent=extent_params(scenario),
+                     vertical=vertical_params(scenario))
+
+
+def extent_params(scenario: Scenario) -> ExtentParams:
+    """How the companion judges points' heights (core/perception/vertical_extent.py): the camera's vertical
+    view, the floor's margin, the altitude's and a point's elevation's sigmas (floored)."""
+    return ExtentParams(scenario.sensor.vfov_rad, scenario.perception.ground_margin_m,
+                        altitude_sigma_m=max(scenario.noise.altitude_sigma_m, 0.05),
+                        elevation_sigma_rad=max(scenario.sensor.bearing_sigma_rad, 1e-3))
+
+
+def vertical_params(scenario: Scenario) -> VerticalParams | None:
+    """avoidance.vertical (core/avoidance/vertical.py), None when off; the climb rate is the vehicle's
+    vertical speed limit (the service's: safety.max_vertical_speed_mps)."""
+    avoidance = scenario.avoidance
+    if not avoidance.vertical:
+        return None
+    return VerticalParams(
+        safety_distance_m=avoidance.safety_distance_m,
+        cruise_altitude_m=scenario.world.start.alt_m,
+        max_vertical_speed_mps=scenario.vehicle.max_vertical_speed_mps,
+        min_altitude_m=avoidance.min_altitude_m, max_altitude_m=avoidance.max_altitude_m,
+        cruise_speed_mps=scenario.vehicle.speed_mps, reach_m=scenario.sensor.max_range_m)
+
+
+def is_3d(scenario: Scenario) -> bool:
+    """Vertical avoidance on, an obstacle with a height, or a camera that sees the floor: the
+    run's summary then carries the 3D figures (a 2D run's stays as it was)."""
+    world = scenario.world
+    return bool(scenario.avoidance.vertical) or scenario.sensor.sees_ground or any(
+        item.height_m is not None or item.base_m > 0.0
+        for item in world.obstacles + world.walls + world.buildings)
+
+
+def with_vertical(scenario: Scenario, vertical: bool | None) -> Scenario:
+    """The scenario with avoidance.vertical replaced (None: as it is)."""
+    if vertical is None:
+        return scenario
+    return dataclasses.replace(scenario, avoidance=dataclasses.replace(scenario.avoidance,
+                                                                       vertical=vertical))
 
 
 def look_at_params(scenario: Scenario) -> LookAtParams | None:
@@ -131,8 +174,13 @@ def with_speed(scenario: Scenario, speed_mps: float | None) -> Scenario:
 
 def run_once(scenario: Scenario, seed: int, strategy: str | None = None) -> RunOutcome:
     """Fly one seeded run of the scenario in-process."""
-    truth = TruthWorld(scenario, np.random.default_rng(seed))
+    truth = TruthWorld(scenario, np.random.default_rng(seed),
+                       np.random.default_rng([seed, VERTICAL_STREAM]))
     nav = make_navigator(scenario, strategy)
+    three_d = is_3d(scenario)
+    path_3d_m = climb_m = 0.0
+    alt_range_m = [truth.altitude_m, truth.altitude_m]
+    nav.on_altitude(truth.reported_altitude_m())
     est = scenario.estimator_config()
     copter = scenario.vehicle.kind == "multicopter"
     # The truth always reports a healthy fix: 'auto' fuses it.
@@ -206,7 +254,15 @@ def run_once(scenario: Scenario, seed: int, strategy: str | None = None) -> RunO
         else:
             odo = truth.step(command.speed_mps, gamma)
             nav.predict(odo.speed_mps, odo.heading_change_rad, dt)
-        path_m += float(np.hypot(*(truth.pose[:2] - before)))
+        step_m = float(np.hypot(*(truth.pose[:2] - before)))
+        path_m += step_m
+        alt_before = truth.altitude_m
+        choice = nav.vertical_choice
+        nav.on_altitude(truth.step_vertical(choice.climb_mps if choice is not None else 0.0))
+        rise = truth.altitude_m - alt_before
+        path_3d_m += math.hypot(step_m, rise)
+        climb_m += max(rise, 0.0)
+        alt_range_m = [min(alt_range_m[0], truth.altitude_m), max(alt_range_m[1], truth.altitude_m)]
         if step % obs_every == 0:
             nav.observe(camera_frame(truth, blobs))
         clear = truth.clearance()
@@ -252,6 +308,13 @@ def run_once(scenario: Scenario, seed: int, strategy: str | None = None) -> RunO
     }
     if nav.archive is not None:                     # the bounded map, when configured
         summary["landmarks"].update(in_archive=len(nav.archive), **nav.archive.counts)
+    if three_d:
+        summary["vertical"] = {
+            "path_3d_m": path_3d_m, "climb_m": climb_m, "min_altitude_m": alt_range_m[0],
+            "max_altitude_m": alt_range_m[1], "final_altitude_m": truth.altitude_m,
+            "points": dict(nav.points), "landmarks_with_top": sum(
+                1 for k in nav.slam.landmark_ids() if k in nav.extents
+                and nav.extents[k].top_m is not None)}
     return RunOutcome(summary, trace, nav.slam.landmarks(), nav.slam.landmark_covs(),
                       truth.obstacle_positions())
 
@@ -322,7 +385,24 @@ def aggregate_summaries(summaries: list[dict], pose_nees: list, safety_distance_
         "path_length_m": {"median": float(np.median([s["path_length_m"] for s in summaries]))},
         "arrivals": arrival_figures(summaries),
         "landmarks": landmark_figures(summaries),
+        **vertical_figures(summaries),
     }
+
+
+def vertical_figures(summaries: list[dict]) -> dict:
+    """The 3D runs' figures ({} when no run is 3D): the mean and median 3D path, the climb, the
+    highest altitude, the floor's and bad points refused."""
+    rows = [s["vertical"] for s in summaries if "vertical" in s]
+    if not rows:
+        return {}
+    paths = [r["path_3d_m"] for r in rows]
+    return {"vertical": {
+        "path_3d_m": {"mean": float(np.mean(paths)), "median": float(np.median(paths))},
+        "climb_m": {"mean": float(np.mean([r["climb_m"] for r in rows])),
+                    "max": float(max(r["climb_m"] for r in rows))},
+        "max_altitude_m": float(max(r["max_altitude_m"] for r in rows)),
+        "points": {key: sum(r["points"][key] for r in rows) for key in ("ground", "bad_z")},
+    }}
 
 
 def surface_figures(summaries: list[dict]) -> dict:

@@ -19,6 +19,7 @@ from companion.core import shapes
 from companion.core.geometry import is_visible, move, wrap_angle
 
 FALSE_ALARM_MIN_RANGE_M = 0.5
+Z_SIGMA_FLOOR_M = 0.05         # a point's height error at no range (a choice)
 
 
 @dataclass(frozen=True)
@@ -59,10 +60,16 @@ def gauss_markov_step(value, sigma: float, tau_s: float, dt_s: float, rng: np.ra
 class TruthWorld:
     """The vehicle's true pose and speed, the obstacles' true positions, and the sensors."""
 
-    def __init__(self, scenario: Scenario, rng: np.random.Generator) -> None:
+    def __init__(self, scenario: Scenario, rng: np.random.Generator,
+                 vertical_rng: np.random.Generator | None = None) -> None:
         self.scenario = scenario
         self.rng = rng
+        # heights have their own random source (the points' z, the altitude's noise, the floor's
+        # returns), so a world without heights keeps its random stream as before
+        self.vertical_rng = vertical_rng if vertical_rng is not None else np.random.default_rng(0)
         start = scenario.world.start
+        self.altitude_m = start.alt_m
+        self.vel_up_mps = 0.0
         self.pose = np.array([start.north_m, start.east_m, wrap_angle(start.yaw_rad)])
         self.speed_mps = scenario.vehicle.speed_mps   # the paper starts already cruising
         self.t_s = 0.0
@@ -72,6 +79,11 @@ class TruthWorld:
                                        for o in obstacles]).reshape(-1, 2)
         self.obstacle_radii = np.array([o.radius_m for o in obstacles])
         self.obstacle_ids = [o.id for o in obstacles]
+        self.obstacle_tops_m = np.array([math.inf if o.height_m is None else o.height_m
+                                         for o in obstacles])
+        self.obstacle_bases_m = np.array([o.base_m for o in obstacles])
+        self.shape_extents_m = [(shape.base_m, math.inf if shape.height_m is None
+                                 else shape.height_m) for _, shape in scenario.world.shapes()]
         # walls and buildings: static convex polygons (core/shapes.py), seen by sectors only
         self.shape_ids = [shape.id for _, shape in scenario.world.shapes()]
         self.shape_corners = [shape.corners_ne() for _, shape in scenario.world.shapes()]
@@ -166,6 +178,58 @@ class TruthWorld:
                        + rng.normal(0.0, math.radians(noise.yaw_sigma_deg))),
             (float(fix[0]), float(fix[1])))
 
+    def step_vertical(self, climb_cmd_mps: float) -> float:
+        """Advance the altitude one vehicle.dt_s toward the commanded climb rate (up positive),
+        acceleration- and speed-limited; the ground stops it. Returns the altitude the autopilot
+        reports (noisy: noise.altitude_sigma_m; the vertical random source). Call it after the
+        horizontal step of the same dt."""
+        vehicle = self.scenario.vehicle
+        dt = vehicle.dt_s
+        limit = vehicle.max_vertical_speed_mps
+        target = max(-limit, min(limit, float(climb_cmd_mps)))
+        max_dv = vehicle.max_accel_mps2 * dt
+        new_vz = self.vel_up_mps + max(-max_dv, min(max_dv, target - self.vel_up_mps))
+        self.altitude_m = max(0.0, self.altitude_m + 0.5 * (self.vel_up_mps + new_vz) * dt)
+        self.vel_up_mps = new_vz if self.altitude_m > 0.0 else max(0.0, new_vz)
+        return self.reported_altitude_m()
+
+    def reported_altitude_m(self) -> float:
+        sigma = self.scenario.noise.altitude_sigma_m
+        return self.altitude_m + (float(self.vertical_rng.normal(0.0, sigma)) if sigma else 0.0)
+
+    def _seen_heights(self, range_m: float, base_m: float, top_m: float) -> tuple | None:
+        """The depths below the camera (FRD z) of the highest and lowest points of an extent
+        [base_m, top_m] within the vertical view at ``range_m`` (noisy), or None if none is."""
+        reach = range_m * math.tan(0.5 * self.scenario.sensor.vfov_rad)
+        high = min(top_m, self.altitude_m + reach)
+        low = max(base_m, 0.0, self.altitude_m - reach)
+        if high < low:
+            return None
+        sigma = self._z_sigma_m(range_m)
+        noise = self.vertical_rng.normal(0.0, sigma, 2)
+        return (self.altitude_m - high + float(noise[0]), self.altitude_m - low + float(noise[1]))
+
+    def _z_sigma_m(self, range_m: float) -> float:
+        """A point's z error: a floor plus the elevation's (the bearing's sigma) times range."""
+        return math.hypot(Z_SIGMA_FLOOR_M, range_m * self.scenario.sensor.bearing_sigma_rad)
+
+    def ground_points(self) -> list[Observation]:
+        """sensor.sees_ground: returns from the floor where the view's lower edge meets it
+        (beyond altitude / tan(vfov / 2), within range), uniform over that area, id-less."""
+        sensor = self.scenario.sensor
+        if not sensor.sees_ground or self.altitude_m <= 0.0:
+            return []
+        near = self.altitude_m / math.tan(0.5 * sensor.vfov_rad)
+        if near >= sensor.max_range_m:
+            return []
+        rng, out = self.vertical_rng, []
+        for _ in range(sensor.ground_points_per_frame):
+            range_m = math.sqrt(rng.uniform(near ** 2, sensor.max_range_m ** 2))
+            depth = self.altitude_m + float(rng.normal(0.0, self._z_sigma_m(range_m)))
+            out.append(Observation(range_m, float(rng.uniform(-0.5, 0.5) * sensor.fov_rad), None,
+                                   top_down_m=depth, bottom_down_m=depth))
+        return out
+
     def observe_sectors(self) -> tuple[np.ndarray, np.ndarray, float]:
         """One depth frame: per bin, the nearest obstacle surface along the ray through the bin's
         centre (ray-cast against every circle, wall and building), with range noise; a bin is missed with
@@ -214,14 +278,24 @@ class TruthWorld:
     def clearance(self) -> "Clearance":
         """How close the vehicle is now to every obstacle, wall and building (see Clearance)."""
         position = self.pose[:2]
+        alt = self.altitude_m
         centre_m = surface_m = math.inf
         if len(self.obstacle_ids):
             gaps = shapes.circle_distance_m(position, self.obstacle_positions(),
                                             self.obstacle_radii)[0]
-            centre_m = float((gaps + self.obstacle_radii).min())
-            surface_m = float(gaps.min())
-        shape_m = min((float(shapes.polygon_distance_m(position, c)[0])
-                       for c in self.shape_corners), default=math.inf)
+            # in 3D: also the height above the top or below the base (0 beside an obstacle,
+            # always 0 for an unbounded one: the 2D figures, bit for bit)
+            over = np.maximum(np.maximum(alt - self.obstacle_tops_m, self.obstacle_bases_m - alt),
+                              0.0)
+            centres = gaps + self.obstacle_radii
+            centre_m = float(np.where(over > 0.0, np.hypot(centres, over), centres).min())
+            surface_m = float(np.where(over > 0.0, np.hypot(np.maximum(gaps, 0.0), over),
+                                       gaps).min())
+        shape_m = math.inf
+        for corners, (base, top) in zip(self.shape_corners, self.shape_extents_m):
+            gap = float(shapes.polygon_distance_m(position, corners)[0])
+            over = max(alt - top, base - alt, 0.0)
+            shape_m = min(shape_m, math.hypot(max(gap, 0.0), over) if over > 0.0 else gap)
         return Clearance(min(centre_m, shape_m), min(surface_m, shape_m))
 
     def observe(self) -> list[Observation]:
@@ -231,19 +305,24 @@ class TruthWorld:
         sensor = self.scenario.sensor
         rng = self.rng
         frame = []
-        for oid, centre in zip(self.obstacle_ids, self.obstacle_positions()):
+        for i, (oid, centre) in enumerate(zip(self.obstacle_ids, self.obstacle_positions())):
             d = centre - self.pose[:2]
             range_m = math.hypot(d[0], d[1])
             bearing = wrap_angle(math.atan2(d[1], d[0]) - self.pose[2])
             if not is_visible(range_m, bearing, sensor.fov_rad, sensor.max_range_m):
                 continue
+            heights = self._seen_heights(range_m, self.obstacle_bases_m[i],
+                                         self.obstacle_tops_m[i])
+            if heights is None:
+                continue                   # wholly above or below the vertical view
             self.seen_ids.add(oid)
             if sensor.miss_probability and rng.random() < sensor.miss_probability:
                 continue
             frame.append(Observation(
                 range_m + rng.normal(0.0, sensor.range_sigma_at(range_m)),
                 wrap_angle(bearing + rng.normal(0.0, sensor.bearing_sigma_rad)),
-                oid if sensor.report_ids else None))
+                oid if sensor.report_ids else None, top_down_m=heights[0],
+                bottom_down_m=heights[1]))
         if sensor.false_alarm_rate_hz:
             # Clutter uniform over the area of the view (a spatial Poisson process, the usual
             # clutter model, and what the stub draws): the range's density grows with the range.
@@ -251,4 +330,4 @@ class TruthWorld:
             for _ in range(rng.poisson(sensor.false_alarm_rate_hz / sensor.rate_hz)):
                 range_m = max(FALSE_ALARM_MIN_RANGE_M, sensor.max_range_m * math.sqrt(rng.random()))
                 frame.append(Observation(range_m, rng.uniform(-0.5, 0.5) * sensor.fov_rad, None))
-        return frame
+        return frame + self.ground_points()

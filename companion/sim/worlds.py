@@ -20,6 +20,7 @@ from companion.core import shapes
 from companion.core.avoidance.arc import stopping_distance_m
 from companion.sim.forest_worlds import FOREST_SPECS, forest_world
 from companion.sim.simulation import perception_delay_s
+from companion.sim.worlds3d import KINDS_3D
 
 
 @dataclass(frozen=True)
@@ -313,5 +314,6 @@ def urban_world(base: Scenario, seed: int) -> Scenario:
 
 
 POST_KINDS = {"gate": gate_world, "trap": trap_world, "urban": urban_world,
-              **{kind: functools.partial(forest_world, kind=kind) for kind in FOREST_SPECS}}
+              **{kind: functools.partial(forest_world, kind=kind) for kind in FOREST_SPECS},
+              **KINDS_3D}              # lowwalls, mixed: worlds3d.py
 WORLD_KINDS = tuple(KINDS) + tuple(TRAFFIC_KINDS) + tuple(POST_KINDS)

@@ -80,11 +80,16 @@ class Observation:
 
     ``meas_cov``: this observation's own R, ((var_r, cov), (cov, var_b)) in m^2, m rad, rad^2
     (a landmark made from a depth camera's sectors knows its spread); None: the filter's R.
+    ``top_down_m`` / ``bottom_down_m``: the highest and lowest of its points, as depths below the
+    camera (FRD z, down positive; core/perception/vertical_extent.py); None: a 2D observation. The EKF
+    itself never reads them.
     """
     range_m: float
     bearing_rad: float
     obstacle_id: int | None = None
     meas_cov: tuple | None = None
+    top_down_m: float | None = None
+    bottom_down_m: float | None = None
 
     def meas_cov_array(self) -> np.ndarray | None:
         return None if self.meas_cov is None else np.asarray(self.meas_cov, dtype=float)
