@@ -117,7 +117,7 @@ def report(result: dict, every: int, out=sys.stdout) -> None:
             extra = (f" v ({v[0]:+.2f}, {v[1]:+.2f}) sigma {s if s is None else round(s, 2)}, "
                      f"position off {np.hypot(*(p - r['obstacles'][row])):.2f} m")
         print(f"  {name}: t {r['t']:.1f} s (+{r['t'] - t0:.1f}), range {rng:.1f} m{extra}", file=out)
-    print("   t     range  v_veh   mode          cmd_v  cmd_hdg  knows", file=out)
+    print("   t     range  v_veh   mode          cmd_v  cmd_hdg  nose  knows", file=out)
     shown = [r for r in recs if t0 - 0.5 <= r["t"] <= cpa["t"] + 1.0]
     for k, r in enumerate(shown):
         if k % every and r is not shown[-1]:
@@ -129,7 +129,7 @@ def report(result: dict, every: int, out=sys.stdout) -> None:
         vel = r["vel"]
         vv = float(np.hypot(*vel)) if vel is not None else float("nan")
         print(f"  {r['t']:5.1f} {rng:6.1f} {vv:5.1f}   {r['mode'][:12]:12s} {r['speed']:5.1f} "
-              f"{r['heading']:7.0f}  {knows}", file=out)
+              f"{r['heading']:7.0f} {math.degrees(r['pose'][2]):5.0f}  {knows}", file=out)
 
 
 def main() -> int:
