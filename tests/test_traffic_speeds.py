@@ -3,8 +3,8 @@ enters the multicopter's decision."""
 import numpy as np
 import pytest
 
-from companion.config import load_scenario
-from companion.worlds import random_world
+from companion.config.schema import load_scenario
+from companion.sim.worlds import random_world
 
 
 @pytest.fixture(scope="module")

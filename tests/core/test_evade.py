@@ -6,13 +6,13 @@ import math
 import numpy as np
 import pytest
 
-from companion.core import velocity_choice as vc
-from companion.core.arc import VehicleLimits, clearance, fly_out
-from companion.core.evade import evasion_candidates, fly_strafe
-from companion.core.guidance import GuidanceCommand, GuidanceParams, shape_setpoint
-from companion.core.movers import MoverParams, MoverTracker
-from companion.core.seen_space import SeenSpace
-from companion.core.union import UnionParams
+from companion.core.avoidance import velocity_choice as vc
+from companion.core.avoidance.arc import VehicleLimits, clearance, fly_out
+from companion.core.avoidance.evade import evasion_candidates, fly_strafe
+from companion.core.avoidance.guidance import GuidanceCommand, GuidanceParams, shape_setpoint
+from companion.core.estimation.movers import MoverParams, MoverTracker
+from companion.core.avoidance.seen_space import SeenSpace
+from companion.core.avoidance.union import UnionParams
 
 FOV = math.radians(90.0)
 LIMITS = VehicleLimits(math.radians(30.0), 2.5, lateral_accel_limited=True)
@@ -77,7 +77,7 @@ def test_evasion_never_flies_into_space_never_seen(monkeypatch):
     for north in np.arange(-80.0, 0.1, 1.0):
         seen.mark(np.array([north, 0.0, 0.0]))
     headings, speeds = evasion_candidates(vc.GRID, 5.0)
-    from companion.core.evade import evasion_margins
+    from companion.core.avoidance.evade import evasion_margins
     margins = evasion_margins(np.zeros(2), LIMITS.motion(5.0, 0.0, 0.0), headings, speeds, 4.0,
                               np.empty((0, 2)), np.empty(0), None, None, seen, 10.0)
     free = evasion_margins(np.zeros(2), LIMITS.motion(5.0, 0.0, 0.0), headings, speeds, 4.0,
