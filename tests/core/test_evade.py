@@ -117,6 +117,10 @@ def test_free_course_setpoint_jumps_and_holds_the_nose():
                                                        free_course=True),
                             math.radians(30), 0.1, 5.0)
     assert turned.course_rad == pytest.approx(2.0) and turned.yaw_rad == pytest.approx(0.0)
+    # after it, the velocity is led by the nose again, not turned on from the evasion's course
+    after = shape_setpoint(0.0, turned, GuidanceCommand(5.0, 0.5, "avoid"), math.radians(30),
+                           0.1, 5.0)
+    assert after.course_rad == pytest.approx(math.radians(3.0))
     led = shape_setpoint(0.0, last, GuidanceCommand(5.0, 2.0, "avoid", yaw_rad=0.0),
                          math.radians(30), 0.1, 5.0)
     assert led.course_rad == pytest.approx(math.radians(3.0))
