@@ -20,7 +20,7 @@ import sys
 import numpy as np
 
 import companion.sim.simulation as simulation
-from companion.config.schema import load_scenario
+from companion.config.scenario import load_scenario
 from companion.sim.worlds import random_world
 
 

@@ -3,7 +3,7 @@ enters the multicopter's decision."""
 import numpy as np
 import pytest
 
-from companion.config.schema import load_scenario
+from companion.config.scenario import load_scenario
 from companion.sim.worlds import random_world
 
 
