@@ -20,11 +20,8 @@ from companion.core import shapes
 from companion.core.avoidance.arc import stopping_distance_m
 from companion.sim.forest_worlds import FOREST_SPECS, forest_world
 from companion.sim.simulation import perception_delay_s
-<<<<<<< HEAD
 from companion.sim.worlds3d import KINDS_3D
-=======
 from companion.sim.traffic_speeds import SPEED_KINDS, speed_kind_check
->>>>>>> 8ed6508 (copter evasion (core/evade.py): side-step / back-off / stop candidates with the velocity setpoint set at once (GuidanceCommand.free_course) and the nose held, tried before a turn in place and in the last resort, only for a multicopter with a mover near; traffic kinds at one mover speed (traffic_speeds.py: head-on-7 etc.); benchmarks/mover_timeline.py. copter.yaml head-on 100 runs seed 0: 0.99, no collision (main 0.97))
 
 
 @dataclass(frozen=True)
@@ -325,12 +322,7 @@ def urban_world(base: Scenario, seed: int) -> Scenario:
                                avoidance=avoidance)
 
 
-<<<<<<< HEAD
 POST_KINDS = {"gate": gate_world, "trap": trap_world, "urban": urban_world,
               **{kind: functools.partial(forest_world, kind=kind) for kind in FOREST_SPECS},
               **KINDS_3D}              # lowwalls, mixed: worlds3d.py
-WORLD_KINDS = tuple(KINDS) + tuple(TRAFFIC_KINDS) + tuple(POST_KINDS)
-=======
-POST_KINDS = {"gate": gate_world, "trap": trap_world, "urban": urban_world}
 WORLD_KINDS = tuple(KINDS) + tuple(TRAFFIC_KINDS) + tuple(POST_KINDS) + tuple(SPEED_KINDS)
->>>>>>> 8ed6508 (copter evasion (core/evade.py): side-step / back-off / stop candidates with the velocity setpoint set at once (GuidanceCommand.free_course) and the nose held, tried before a turn in place and in the last resort, only for a multicopter with a mover near; traffic kinds at one mover speed (traffic_speeds.py: head-on-7 etc.); benchmarks/mover_timeline.py. copter.yaml head-on 100 runs seed 0: 0.99, no collision (main 0.97))
