@@ -17,7 +17,8 @@ from companion.core.avoidance.union import UnionParams
 FOV = math.radians(90.0)
 LIMITS = VehicleLimits(math.radians(30.0), 2.5, lateral_accel_limited=True)
 PARAMS = GuidanceParams(5.0, 10.0, 4.0, 1.25, 2.0)
-UNION = UnionParams(lookahead_s=4.0, fov_rad=FOV, sensor_range_m=40.0, perception_delay_s=1.0)
+UNION = UnionParams(lookahead_s=4.0, fov_rad=FOV, sensor_range_m=40.0, perception_delay_s=1.0,
+                    evade_movers=True)
 
 
 def seen_behind() -> SeenSpace:

@@ -206,7 +206,7 @@ def choose_velocity(pose: np.ndarray, goal_heading: float, goal_distance: float,
                                ttca, side=int(np.sign(turn)) or 1 if speed > 0.0 else side,
                                yaw_rad=yaw, free_course=True)
 
-    evades = _evades(motion, velocities)
+    evades = union.evade_movers and _evades(motion, velocities)
     evasion: list = []          # _evasion's answer, computed once, when asked for
 
     def evasion_now() -> tuple:
