@@ -52,6 +52,9 @@ class AvoidanceConfig:
     headway_first: bool = False           # velocity choice: a slower heading within 90 deg of the
                                           # goal before a faster one away from it (forests;
                                           # core/avoidance/velocity_choice.py)
+    evade_movers: bool = False            # a multicopter's evasion of near movers: side-step,
+                                          # back off or stop with the nose held
+                                          # (core/avoidance/evade.py; docs/copter-headon-failures.md)
     # Avoidance in 3D (core/avoidance/vertical.py): climb over what costs less to climb than to
     # fly round. None: off, except on the random worlds of heights (lowwalls, mixed): on.
     vertical: bool | None = None
@@ -92,6 +95,7 @@ class AvoidanceConfig:
         fov = math.radians(self.camera_fov_deg) if self.camera_fov_deg is not None else sensor_fov_rad
         return UnionParams(lookahead_s=self.lookahead_s, hysteresis=self.hysteresis, fov_rad=fov,
                            gap_margin_m=self.gap_margin_m, headway_first=self.headway_first,
+                           evade_movers=self.evade_movers,
                            flank_scan_rad=None if self.flank_scan_deg is None
                            else math.radians(self.flank_scan_deg),
                            flank_scan_period_s=self.flank_scan_period_s)

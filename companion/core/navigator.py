@@ -21,7 +21,7 @@ from companion.core.estimation.ekf_slam import EkfSlam
 from companion.core.estimation.slam_types import (AssociationGates, Observation, SlamNoise,
                                                   UpdateReport)
 from companion.core.estimator_options import EstimatorOptions, moderate
-from companion.core.geometry import move, move_velocity, place, wrap_angle
+from companion.core.geometry import is_visible, move, move_velocity, place, wrap_angle
 from companion.core.estimation.lifecycle import Lifecycle, expected_visible
 from companion.core.estimation.map_archive import MapArchive, stale
 from companion.core.estimation.motion_evidence import is_straight_track, shared_yaw_velocity_cov
@@ -472,7 +472,10 @@ class Navigator:
         reports.extend(self._judge_lifecycle())
         if self.archive is not None:
             reports.extend(self._bound_map())
-        self.movers.prune(self.clock_s)
+        # a multicopter's only (a unicycle's flights stay as they were; the same reason holds)
+        keep = self.union.evade_movers and self.limits is not None \
+            and self.limits.lateral_accel_limited and self.union.sensor_range_m is not None
+        self.movers.prune(self.clock_s, self._unseeable_near if keep else None)
         return reports
 
     def _bound_map(self) -> list[UpdateReport]:
@@ -510,6 +513,17 @@ class Navigator:
             reports.append(UpdateReport("archived", None, None, None, key))
         slam.remove_landmarks(drop)
         return reports
+
+    def _unseeable_near(self, position: np.ndarray) -> bool:
+        """A coasting track predicted within the camera's range of the vehicle but outside its
+        view: kept (movers.prune) until the camera could have seen it there (a multicopter's
+        velocity choice with a camera range only)."""
+        pose = self.slam.pose
+        gap = np.asarray(position, dtype=float) - pose[:2]
+        range_m = float(np.hypot(*gap))
+        bearing = wrap_angle(math.atan2(gap[1], gap[0]) - float(pose[2]))
+        return range_m <= self.union.sensor_range_m \
+            and not is_visible(range_m, bearing, self.union.fov_rad, self.union.sensor_range_m)
 
     def _schmidt(self, key) -> bool:
         """Whether a landmark's observations correct only itself: on probation for motion, or

@@ -21,6 +21,7 @@ from companion.core.avoidance.arc import stopping_distance_m
 from companion.sim.forest_worlds import FOREST_SPECS, forest_world
 from companion.sim.simulation import perception_delay_s
 from companion.sim.worlds3d import KINDS_3D
+from companion.sim.traffic_speeds import SPEED_KINDS, speed_kind_check
 
 
 @dataclass(frozen=True)
@@ -67,7 +68,9 @@ def start_stopping_m(base: Scenario) -> float:
 def random_world(base: Scenario, kind: str, seed: int) -> Scenario:
     """A scenario like ``base`` flying a freshly drawn world of ``kind`` (see WORLD_KINDS)."""
     if kind in TRAFFIC_KINDS:
-        return traffic_world(base, kind, seed)
+        return traffic_world(base, kind, seed=seed)
+    if kind in SPEED_KINDS:
+        return traffic_world(base, *SPEED_KINDS[kind], seed=seed, name=kind)
     if kind in POST_KINDS:
         return POST_KINDS[kind](base, seed)
     if kind not in KINDS:
@@ -119,9 +122,13 @@ TRAFFIC_KINDS = {
 TRAFFIC_SPEED_MPS = (3.0, 5.0)
 
 
-def traffic_world(base: Scenario, kind: str, seed: int) -> Scenario:
+def traffic_world(base: Scenario, kind: str, mover_speed_mps: float | None = None, *,
+                  seed: int, name: str | None = None) -> Scenario:
     """A sparse world of ``base`` (same seed) plus the movers of ``kind``, each placed so that it
-    would meet the vehicle flying straight at cruise speed: the worst case, not a chance one."""
+    would meet the vehicle flying straight at cruise speed: the worst case, not a chance one.
+    ``mover_speed_mps``: every mover at this speed (traffic_speeds.py), the rest drawn alike."""
+    if mover_speed_mps is not None:
+        speed_kind_check(kind, mover_speed_mps, base.vehicle.speed_mps)
     world = random_world(base, "sparse", seed)
     rng = np.random.default_rng([seed, 0x7AFF1C])
     leg = world.world.goal.north_m
@@ -129,7 +136,9 @@ def traffic_world(base: Scenario, kind: str, seed: int) -> Scenario:
     movers = []
     next_id = len(world.world.obstacles) + 1
     for pattern in TRAFFIC_KINDS[kind]:
-        mover_speed = rng.uniform(*TRAFFIC_SPEED_MPS)
+        mover_speed = rng.uniform(*TRAFFIC_SPEED_MPS)     # drawn always: the same stream
+        if mover_speed_mps is not None:
+            mover_speed = mover_speed_mps
         meet_north = rng.uniform(0.3, 0.8) * leg
         meet_t = meet_north / speed
         if pattern == "head-on":
@@ -151,7 +160,7 @@ def traffic_world(base: Scenario, kind: str, seed: int) -> Scenario:
     d = base.avoidance.safety_distance_m
     movers = [m for m in movers if math.hypot(m.north_m, m.east_m) > 2.0 * d]
     new_world = dataclasses.replace(world.world, obstacles=world.world.obstacles + tuple(movers))
-    return dataclasses.replace(world, name=f"{kind}-{seed}", world=new_world)
+    return dataclasses.replace(world, name=f"{name or kind}-{seed}", world=new_world)
 
 
 POST_SPACING_M = 4.0          # walls are rows of posts (circles) this far apart, 1 m radius
@@ -316,4 +325,4 @@ def urban_world(base: Scenario, seed: int) -> Scenario:
 POST_KINDS = {"gate": gate_world, "trap": trap_world, "urban": urban_world,
               **{kind: functools.partial(forest_world, kind=kind) for kind in FOREST_SPECS},
               **KINDS_3D}              # lowwalls, mixed: worlds3d.py
-WORLD_KINDS = tuple(KINDS) + tuple(TRAFFIC_KINDS) + tuple(POST_KINDS)
+WORLD_KINDS = tuple(KINDS) + tuple(TRAFFIC_KINDS) + tuple(POST_KINDS) + tuple(SPEED_KINDS)

@@ -68,6 +68,10 @@ class GuidanceCommand:
     side: int = 0          # union guidance: +1 passing with the goal on the left, -1 right, 0 none
     yaw_rad: float | None = None   # a multicopter's nose apart from its velocity: toward a tracked
                                    # mover it cannot see (core/avoidance/look_at.py); None: along heading_rad
+    free_course: bool = False      # a multicopter's evasion (core/avoidance/evade.py): the velocity
+                                   # setpoint goes to heading_rad at once, not turned at the turn
+                                   # rate (the autopilot's acceleration limit shapes the flight);
+                                   # the nose holds yaw_rad
 
 
 @dataclass(frozen=True)
@@ -250,6 +254,11 @@ def shape_setpoint(yaw_now_rad: float, last: ShapedSetpoint | None, command: Gui
     reference = last.course_rad if apart else yaw_now_rad
     course = wrap_angle(reference + limit_turn(reference, command.heading_rad,
                                                max_turn_rate_rad_s, dt_s))
+    if command.free_course:
+        # an evasion: the setpoint is the command (evade.py); once it ends, the velocity is led
+        # by the nose again at once (not apart: a course turning ahead of a lagging nose flies
+        # where the camera does not look; traffic seed 58 met a crosser from that side)
+        course, apart = wrap_angle(command.heading_rad), False
     target = course if command.yaw_rad is None else command.yaw_rad
     yaw = wrap_angle(yaw_now_rad + limit_turn(yaw_now_rad, target, max_turn_rate_rad_s, dt_s))
     speed = command.speed_mps if not math.isfinite(command.speed_mps) \

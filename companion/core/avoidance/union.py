@@ -51,6 +51,9 @@ class UnionParams:
     flank_scan_period_s: float = 4.0      # edges, each side within the period (flank_scan.py)
     headway_first: bool = False       # velocity choice: headway at a lower speed before a
                                       # faster heading away from the goal, static fields too
+    evade_movers: bool = False        # velocity choice (a multicopter's): side-step, back-off and
+                                      # stop candidates with the nose held when a mover is near,
+                                      # coasting tracks kept while unseeable near (evade.py)
 
 
 def turn_speed_factor(heading_rad: float, desired_rad: float, fov_rad: float) -> float:

@@ -25,6 +25,7 @@ import numpy as np
 
 from companion.core.avoidance.arc import (MAX_GROWTH_M, Motion, Rollout, clearance, fly_out,
                                           margins_by_obstacle, stopping_distance_m)
+from companion.core.avoidance.evade import evasion_candidates, evasion_margins
 from companion.core.avoidance.guidance import (GuidanceCommand, GuidanceInputs, GuidanceParams,
                                                approach_speed, inflated_radius, toward_goal)
 from companion.core.avoidance.seen_space import SeenSpace
@@ -193,7 +194,35 @@ def choose_velocity(pose: np.ndarray, goal_heading: float, goal_distance: float,
                                None if urgent is None else int(near[urgent]), ttca,
                                side=int(np.sign(offset[index])) or 1 if index else 0)
 
+    def evade_command(heading: float, speed: float, mode: str = "evade") -> GuidanceCommand:
+        """An evasion (evade.py): the velocity setpoint at once, the nose held where it is."""
+        urgent, ttca = _most_urgent(position, motion, goal_heading, cruise, obstacles, radii,
+                                    velocities, growth_mps, union,
+                                    goal_path[0] if goal_path else None)
+        if speed <= 0.0:
+            heading = motion.course_rad
+        turn = float(wrap_angles(np.array([heading - goal_heading]))[0])
+        return GuidanceCommand(speed, heading, mode, None if urgent is None else int(near[urgent]),
+                               ttca, side=int(np.sign(turn)) or 1 if speed > 0.0 else side,
+                               yaw_rad=yaw, free_course=True)
+
+    evades = union.evade_movers and _evades(motion, velocities)
+    evasion: list = []          # _evasion's answer, computed once, when asked for
+
+    def evasion_now() -> tuple:
+        if not evasion:
+            evasion.append(_evasion(position, motion, goal_heading, reference, side, cruise,
+                                    obstacles, radii, velocities, growth_mps, seen, union,
+                                    params.safety_distance_m))
+        return evasion[0]
+
+    def in_place(chosen: GuidanceCommand) -> bool:
+        """A turn in place (a heading beyond the view: no speed until the nose is there), where
+        an evasion may come first."""
+        return evades and chosen.speed_mps <= 0.0
+
     away: GuidanceCommand | None = None
+    deferred: GuidanceCommand | None = None
     for fraction in SPEED_FRACTIONS:
         speed = cruise * fraction
         blocked = blocking(candidates, position, obstacles, radii, params.eta,
@@ -210,7 +239,8 @@ def choose_velocity(pose: np.ndarray, goal_heading: float, goal_distance: float,
         skip = 0
         if free[0] == 0:
             if reachable(free[:1], speed)[0] >= 0.0:
-                return looked(command(0, speed, "avoid"), speed)
+                deferred = looked(command(0, speed, "avoid"), speed)
+                break
             skip = 1                     # the goal heading is not reachable: scan the others
         away_last = velocities is not None or union.headway_first
         first, first_forward = _first_passing(free, skip, lambda k: reachable(k, speed),
@@ -218,27 +248,71 @@ def choose_velocity(pose: np.ndarray, goal_heading: float, goal_distance: float,
         if first is None:
             continue
         if not away_last or abs(offset[first]) < 0.5 * np.pi:
-            return looked(command(first, speed, "avoid"), speed)
+            deferred = looked(command(first, speed, "avoid"), speed)
+            break
         # Flying away from the goal to keep clear of a mover: at full speed beside a crossing
         # mover that heading can stay free for as long as the mover goes on (traffic worlds: an
         # escort 300 m off the way); a slower speed that makes headway, behind it, comes first.
         away = away or command(first, speed, "avoid")
         if first_forward is not None:
-            return looked(command(first_forward, speed, "avoid"), speed)
-    if away is not None:
-        return away
+            deferred = looked(command(first_forward, speed, "avoid"), speed)
+            break
+    chosen = deferred or away
+    if chosen is not None and not in_place(chosen):
+        return chosen
+    if chosen is not None:
+        # a multicopter turning in place with a mover near: side-stepping or backing off with
+        # its nose held comes first, if one keeps every margin (evade.py)
+        moving = evasion_now()[0]
+        return evade_command(*moving[:2]) if moving is not None else chosen
     everything = np.argsort(cost, kind="stable")
     for speed in (0.25 * cruise, 0.0):
         first, _ = _first_passing(everything, 0, lambda k: flyable(k, speed), offset, False)
         if first is not None:
             return command(first, speed, "slow" if speed else "stop")
+    if evades and evasion_now()[0] is not None:
+        return evade_command(*evasion_now()[0][:2])
     best_margin, best = -np.inf, (0, 0.0)
     for speed in (0.0, 0.5 * cruise, cruise):
         margin = flyable(everything, speed)
         k = int(np.argmax(margin))
         if margin[k] > best_margin + 0.5:       # a slower option wins ties: less to go wrong
             best_margin, best = float(margin[k]), (int(everything[k]), speed)
+    if evades and evasion_now()[1][2] > best_margin + 0.5:
+        return evade_command(*evasion_now()[1][:2], mode="hold")
     return command(best[0], best[1], "hold")
+
+
+def _evades(motion: Motion, velocities: np.ndarray | None) -> bool:
+    """Evasions (evade.py) are candidates for a multicopter (its nose known, its velocity limited
+    as a vector) with a mover among the obstacles; static worlds and the unicycle fly as before."""
+    return (motion.nose_rad is not None and motion.max_lateral_accel_mps2 is not None
+            and velocities is not None and bool(np.any(velocities != 0.0)))
+
+
+def _evasion(position: np.ndarray, motion: Motion, goal_heading: float, reference: float,
+             side: int, cruise: float, obstacles: np.ndarray, radii: np.ndarray,
+             velocities: np.ndarray, growth_mps: np.ndarray | None, seen: SeenSpace | None,
+             union: UnionParams, d: float) -> tuple[tuple | None, tuple]:
+    """The evasions (evade.py) as (heading, speed, margin): the first moving one by the union
+    law's cost (goal, hysteresis, side) whose margin is >= 0, or None; and the one with the most
+    margin, the stop winning ties of 0.5 m (less to go wrong), for the last resort."""
+    headings, speeds = evasion_candidates(GRID, cruise)
+    margin = evasion_margins(position, motion, headings, speeds, union.lookahead_s, obstacles,
+                             radii, velocities, growth_mps, seen, d)
+    offset = wrap_angles(headings - goal_heading)
+    cost = np.abs(offset) + union.hysteresis * np.abs(wrap_angles(headings - reference))
+    if side:
+        cost = cost + np.pi * (np.sign(offset) == -side)
+    passing = np.flatnonzero(margin[1:] >= 0.0) + 1          # index 0 is the stop
+    first = None
+    if passing.size:
+        k = int(passing[np.argmin(cost[passing])])
+        first = (float(headings[k]), float(speeds[k]), float(margin[k]))
+    k = int(np.argmax(margin))
+    if margin[0] >= margin[k] - 0.5:
+        k = 0
+    return first, (float(headings[k]), float(speeds[k]), float(margin[k]))
 
 
 def _first_passing(order: np.ndarray, skip: int, margin_of, offset: np.ndarray,

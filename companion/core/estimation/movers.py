@@ -176,10 +176,16 @@ class MoverTracker:
     def states(self, t_s: float) -> list[MoverState]:
         return [self.state(track_id, t_s) for track_id in self._tracks]
 
-    def prune(self, t_s: float) -> list[int]:
-        """Delete tracks unseen for coast_s; returns their ids."""
+    def prune(self, t_s: float, keep=None) -> list[int]:
+        """Delete tracks unseen for coast_s; returns their ids. ``keep``: a function of a track's
+        predicted position (2,) saying it must stay all the same (the navigator's: a track
+        predicted near the vehicle but outside the camera's view, where it could not have been
+        seen: deleting it forgets a mover that may be beside or behind the vehicle, issue 33)."""
         stale = [tid for tid, (_, last_t, _) in self._tracks.items()
                  if t_s - last_t > self.params.coast_s]
+        if keep is not None:
+            stale = [tid for tid in stale
+                     if not keep(self.state(tid, t_s).position_ne_m)]
         for tid in stale:
             _, _, oid = self._tracks.pop(tid)
             self._updates.pop(tid, None)

@@ -1,0 +1,102 @@
+"""A multicopter's evasion: stop, side-step or back off, its nose held on what comes (issue 33).
+
+The velocity choice (velocity_choice.py) flies a multicopter where its camera looks: a heading
+beyond half the view is turned to in place before the vehicle moves off (union.turn_speed_factor,
+arc._fly_copter). Against a mover met head-on that is the wrong reflex. Seen at 36 m and closing
+at 9.4 m/s (a 4.4 m/s mover, the copter at 5 m/s), it arrives in 3.8 s; a 90 deg turn in place
+takes 3 s at 30 deg/s, and the vehicle brakes straight meanwhile, in the mover's lane
+(docs/copter-headon-failures.md: every head-on failure of copter.yaml). A multicopter does not
+need its nose to move sideways: its velocity setpoint can point anywhere, and the autopilot
+reaches it within its acceleration limit, as a vector.
+
+Here the candidates are that: every heading of the 5 deg grid at cruise and half cruise, flown
+with the velocity setpoint set at once (``free_course``) and the nose held where it is (so the
+camera stays on the mover ahead), plus stopping (braking straight). Each is rolled out as the
+vehicle flies it (``fly_strafe``: the velocity moves toward the setpoint at max_accel as a vector
+for the horizon, then brakes to rest) and measured as every other candidate is (arc.clearance:
+movers at their predicted positions, their radius grown by their velocity's uncertainty). The
+camera does not look where a side-step or a back-off goes, so its path must also keep d from
+space never seen (seen_space.py), always, not only where the stopping distance exceeds d.
+
+How the velocity choice uses them (velocity_choice.choose_velocity, only with a mover among the
+obstacles and only for a multicopter; static worlds and the unicycle are flown as before):
+after every nose-led option (cruise down to a quarter, slow, stop) has failed, the first
+evasion whose margin is >= 0 in the order of the union law's cost; none: the evasion with the
+most margin enters the last resort's comparison ("hold"), where a slower option wins ties of
+0.5 m. A stop (speed 0) is itself a candidate, so a stop that keeps d is preferred to any
+evasion whose clearance is in doubt (margin < 0 with the mover's uncertainty), and a side-step
+is only taken over a stop when it keeps more clearance.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from companion.core.avoidance.arc import STEP_S, Motion, Rollout, clearance
+from companion.core.avoidance.seen_space import SeenSpace
+
+EVADE_SPEED_FRACTIONS = (1.0, 0.5)
+
+
+def fly_strafe(start_ne_m: np.ndarray, motion: Motion, headings_rad: np.ndarray,
+               speeds_mps: np.ndarray, horizon_s: float) -> Rollout:
+    """Roll J velocity setpoints (headings (J,), speeds (J,)) forward ``horizon_s``, then brake to
+    rest, as truth.step_copter flies a setpoint that does not follow the nose: each step the
+    velocity moves toward the setpoint by at most max_accel * STEP_S, as a vector. positions
+    (J, N, 2), speeds (J, N); the same time steps as arc.fly_out."""
+    headings = np.asarray(headings_rad, dtype=float)
+    commanded = np.asarray(speeds_mps, dtype=float)
+    j = len(headings)
+    max_dv = motion.max_accel_mps2 * STEP_S
+    top = max(float(commanded.max(initial=0.0)), motion.speed_mps)
+    cruise_steps = int(math.ceil(horizon_s / STEP_S))
+    steps = cruise_steps + int(math.ceil(top / max(max_dv, 1e-9)))
+    target_n, target_e = commanded * np.cos(headings), commanded * np.sin(headings)
+    vel_n = np.full(j, motion.speed_mps * math.cos(motion.course_rad))
+    vel_e = np.full(j, motion.speed_mps * math.sin(motion.course_rad))
+    north, east = np.full(j, float(start_ne_m[0])), np.full(j, float(start_ne_m[1]))
+    positions = np.empty((j, steps, 2))
+    speeds = np.empty((j, steps))
+    for k in range(steps):
+        if k < cruise_steps:
+            dv_n, dv_e = target_n - vel_n, target_e - vel_e
+        else:
+            dv_n, dv_e = -vel_n, -vel_e
+        norm = np.sqrt(dv_n * dv_n + dv_e * dv_e)
+        scale = np.where(norm > max_dv, max_dv / np.maximum(norm, 1e-12), 1.0)
+        dv_n, dv_e = dv_n * scale, dv_e * scale
+        north = north + (vel_n + 0.5 * dv_n) * STEP_S
+        east = east + (vel_e + 0.5 * dv_e) * STEP_S
+        vel_n, vel_e = vel_n + dv_n, vel_e + dv_e
+        positions[:, k, 0] = north
+        positions[:, k, 1] = east
+        speeds[:, k] = np.sqrt(vel_n * vel_n + vel_e * vel_e)
+    return Rollout(STEP_S * np.arange(1, steps + 1), positions, speeds)
+
+
+def evasion_margins(position: np.ndarray, motion: Motion, headings: np.ndarray,
+                    speeds: np.ndarray, horizon_s: float, obstacles: np.ndarray,
+                    radii: np.ndarray, velocities: np.ndarray | None,
+                    growth_mps: np.ndarray | None, seen: SeenSpace | None,
+                    safety_distance_m: float) -> np.ndarray:
+    """(J,) each evasion's worst margin (m): from the obstacles (clearance, movers grown by their
+    uncertainty) and, with a seen space, from space never seen (d less the grid's cell, as
+    velocity_choice._seen_margin, and less what the vehicle lacks of it already here)."""
+    rolled = fly_strafe(position, motion, headings, speeds, horizon_s)
+    margin = clearance(rolled, obstacles, radii, velocities, growth_mps, position)
+    if seen is None:
+        return margin
+    need = safety_distance_m - seen.cell_m
+    now = float(seen.margin(position[None, :])[0]) - need
+    unseen = seen.margin(rolled.positions.reshape(-1, 2)).reshape(rolled.positions.shape[:2])
+    return np.minimum(margin, unseen.min(axis=1) - need - min(now, 0.0))
+
+
+def evasion_candidates(headings: np.ndarray, cruise_mps: float) -> tuple[np.ndarray, np.ndarray]:
+    """(K,) headings and speeds: a stop first, then every heading at each EVADE_SPEED_FRACTIONS
+    of cruise."""
+    grid_h = np.concatenate([np.zeros(1)] + [headings for _ in EVADE_SPEED_FRACTIONS])
+    grid_v = np.concatenate([np.zeros(1)] + [np.full(len(headings), f * cruise_mps)
+                                             for f in EVADE_SPEED_FRACTIONS])
+    return grid_h, grid_v
