@@ -191,16 +191,27 @@ def _fly_copter(start: np.ndarray, motion: Motion, headings: np.ndarray, command
                 speeds[:, k:] = 0.0
                 break
             dv_n, dv_e = -vel_n, -vel_e
-        norm = np.sqrt(dv_n * dv_n + dv_e * dv_e)       # as truth.step_copter: limited beyond
-        scale = np.where(norm > max_dv, max_dv / np.maximum(norm, 1e-12), 1.0)
-        dv_n, dv_e = dv_n * scale, dv_e * scale
-        north = north + (vel_n + 0.5 * dv_n) * STEP_S
-        east = east + (vel_e + 0.5 * dv_e) * STEP_S
-        vel_n, vel_e = vel_n + dv_n, vel_e + dv_e
-        positions[:, k, 0] = north
-        positions[:, k, 1] = east
-        speeds[:, k] = np.sqrt(vel_n * vel_n + vel_e * vel_e)
+        north, east, vel_n, vel_e = accel_limited_step(north, east, vel_n, vel_e, dv_n, dv_e,
+                                                       max_dv, positions, speeds, k)
     return positions, speeds
+
+
+def accel_limited_step(north, east, vel_n, vel_e, dv_n, dv_e, max_dv: float,
+                       positions: np.ndarray, speeds: np.ndarray, k: int):
+    """One STEP_S of a multicopter's roll-out (arrays of J): the velocity change (dv_n, dv_e)
+    limited to max_dv as a vector (as truth.step_copter: limited beyond), the position moved by
+    the mean velocity, written into positions[:, k] and speeds[:, k]; returns the new north,
+    east, vel_n, vel_e. Shared by _fly_copter and the evasion's roll-out (evade.py)."""
+    norm = np.sqrt(dv_n * dv_n + dv_e * dv_e)
+    scale = np.where(norm > max_dv, max_dv / np.maximum(norm, 1e-12), 1.0)
+    dv_n, dv_e = dv_n * scale, dv_e * scale
+    north = north + (vel_n + 0.5 * dv_n) * STEP_S
+    east = east + (vel_e + 0.5 * dv_e) * STEP_S
+    vel_n, vel_e = vel_n + dv_n, vel_e + dv_e
+    positions[:, k, 0] = north
+    positions[:, k, 1] = east
+    speeds[:, k] = np.sqrt(vel_n * vel_n + vel_e * vel_e)
+    return north, east, vel_n, vel_e
 
 
 def _fly_copter_one(start: np.ndarray, motion: Motion, heading: float, commanded: float,

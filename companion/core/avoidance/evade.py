@@ -33,7 +33,7 @@ import math
 
 import numpy as np
 
-from companion.core.avoidance.arc import STEP_S, Motion, Rollout, clearance
+from companion.core.avoidance.arc import STEP_S, Motion, Rollout, accel_limited_step, clearance
 from companion.core.avoidance.seen_space import SeenSpace
 
 EVADE_SPEED_FRACTIONS = (1.0, 0.5)
@@ -63,15 +63,8 @@ def fly_strafe(start_ne_m: np.ndarray, motion: Motion, headings_rad: np.ndarray,
             dv_n, dv_e = target_n - vel_n, target_e - vel_e
         else:
             dv_n, dv_e = -vel_n, -vel_e
-        norm = np.sqrt(dv_n * dv_n + dv_e * dv_e)
-        scale = np.where(norm > max_dv, max_dv / np.maximum(norm, 1e-12), 1.0)
-        dv_n, dv_e = dv_n * scale, dv_e * scale
-        north = north + (vel_n + 0.5 * dv_n) * STEP_S
-        east = east + (vel_e + 0.5 * dv_e) * STEP_S
-        vel_n, vel_e = vel_n + dv_n, vel_e + dv_e
-        positions[:, k, 0] = north
-        positions[:, k, 1] = east
-        speeds[:, k] = np.sqrt(vel_n * vel_n + vel_e * vel_e)
+        north, east, vel_n, vel_e = accel_limited_step(north, east, vel_n, vel_e, dv_n, dv_e,
+                                                       max_dv, positions, speeds, k)
     return Rollout(STEP_S * np.arange(1, steps + 1), positions, speeds)
 
 
