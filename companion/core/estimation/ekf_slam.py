@@ -231,7 +231,7 @@ class EkfSlam:
         # F = [[1, 0, a], [0, 1, b], [0, 0, 1]] and G = [[dt c, a], [dt s, b], [0, 1]] with
         # a = -v dt sin(course), b = v dt cos(course): written out in scalars, because a dozen
         # numpy calls on 3x3 blocks cost more than the arithmetic (see benchmarks/run.py).
-        mean, cov, dim = self._mean_buf, self._cov_buf, self._dim
+        mean, cov = self._mean_buf, self._cov_buf
         course = float(mean[2]) + heading_change_rad
         c, s = math.cos(course), math.sin(course)
         step = speed_mps * dt_s
@@ -239,22 +239,14 @@ class EkfSlam:
         mean[0] += step * c
         mean[1] += step * s
         mean[2] = wrap_angle(course)
-        if dim > POSE_DIM:                                  # F @ P_vm: rows 0 and 1 take row 2
-            row2 = cov[2, POSE_DIM:dim]
-            cov[0, POSE_DIM:dim] += a * row2
-            cov[1, POSE_DIM:dim] += b * row2
-            cov[POSE_DIM:dim, 0] = cov[0, POSE_DIM:dim]
-            cov[POSE_DIM:dim, 1] = cov[1, POSE_DIM:dim]
-        (p00, p01, p02), (_, p11, p12), (_, _, p22) = cov[:3, :3].tolist()
-        r00, r01, r02 = p00 + a * p02, p01 + a * p12, p02 + a * p22          # rows of F P
-        r11, r12 = p11 + b * p12, p12 + b * p22
+        m00, m01, r02, m11, r12, p22 = self._shear_position_by_yaw(a, b)
         q_speed = self.noise.speed_sigma_mps ** 2 * speed_var_scale * dt_s * dt_s
         q_turn = (self.noise.heading_change_sigma_rad ** 2 * dt_s / self.noise.reference_dt_s
                   + heading_var_extra)
-        n00 = r00 + a * r02 + c * c * q_speed + a * a * q_turn
-        n01 = r01 + b * r02 + c * s * q_speed + a * b * q_turn
+        n00 = m00 + c * c * q_speed + a * a * q_turn
+        n01 = m01 + c * s * q_speed + a * b * q_turn
         n02 = r02 + a * q_turn
-        n11 = r11 + b * r12 + s * s * q_speed + b * b * q_turn
+        n11 = m11 + s * s * q_speed + b * b * q_turn
         n12 = r12 + b * q_turn
         n22 = p22 + q_turn
         cov[:3, :3] = ((n00, n01, n02), (n01, n11, n12), (n02, n12, n22))
@@ -265,12 +257,22 @@ class EkfSlam:
         autopilot's own yaw (see there): it moves by R(offset) v dt, offset = the yaw state minus
         that yaw, so F couples the position to the yaw, F = [[1, 0, a], [0, 1, b], [0, 0, 1]],
         (a, b) = dt (-v'_e, v'_n) with v' = R(offset) v. O(n), as the paper model's predict."""
-        mean, cov, dim = self._mean_buf, self._cov_buf, self._dim
+        mean, cov = self._mean_buf, self._cov_buf
         c, s = math.cos(offset_rad), math.sin(offset_rad)
         vn, ve = c * vel_north_mps - s * vel_east_mps, s * vel_north_mps + c * vel_east_mps
         mean[0] += vn * dt_s
         mean[1] += ve * dt_s
         a, b = -ve * dt_s, vn * dt_s
+        n00, n01, n02, n11, n12, n22 = self._shear_position_by_yaw(a, b)
+        cov[:3, :3] = ((n00, n01, n02), (n01, n11, n12), (n02, n12, n22))
+
+    def _shear_position_by_yaw(self, a: float, b: float) -> tuple[float, ...]:
+        """F P F^T for F = [[1, 0, a], [0, 1, b], [0, 0, 1]] on the pose (the position moved by
+        a yaw error): the pose-landmark rows 0 and 1 updated in place (F @ P_vm, O(n)); the pose
+        block returned, not written, as its upper triangle (00, 01, 02, 11, 12, 22), for the
+        caller to add its process noise. Shared by the paper model's predict and the velocity
+        model's yaw frame."""
+        cov, dim = self._cov_buf, self._dim
         if dim > POSE_DIM:                                  # F @ P_vm: rows 0 and 1 take row 2
             row2 = cov[2, POSE_DIM:dim]
             cov[0, POSE_DIM:dim] += a * row2
@@ -280,8 +282,7 @@ class EkfSlam:
         (p00, p01, p02), (_, p11, p12), (_, _, p22) = cov[:3, :3].tolist()
         r00, r01, r02 = p00 + a * p02, p01 + a * p12, p02 + a * p22          # rows of F P
         r11, r12 = p11 + b * p12, p12 + b * p22
-        n00, n01, n11 = r00 + a * r02, r01 + b * r02, r11 + b * r12
-        cov[:3, :3] = ((n00, n01, r02), (n01, n11, r12), (r02, r12, p22))
+        return r00 + a * r02, r01 + b * r02, r02, r11 + b * r12, r12, p22
 
     def predict_velocity(self, vel_north_mps: float, vel_east_mps: float, yaw_rate_rad_s: float,
                          dt_s: float, noise: VelocityNoise, var_scale: float = 1.0,
