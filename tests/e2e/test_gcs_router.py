@@ -69,3 +69,16 @@ def test_a_ground_station_that_sets_the_streams_to_2_or_4_hz(tmp_path, rate_hz):
     check_flight(result, MISSION_A)
     states = [state for _, state in result["estimator_state_changes"]]
     assert set(states) <= {"ok"}, result["estimator_state_changes"]
+
+
+@pytest.mark.slow
+def test_an_upload_as_the_companion_starts_and_a_re_upload_at_2_hz(tmp_path):
+    """The held-out layout's hardest case at once: MAVProxy's upload meets the companion's first
+    download, a changed mission is re-uploaded after the first waypoint, and the ground station
+    holds every stream at 2 Hz."""
+    result = run("during", SPEEDUP, reupload=True, gcs_rate_hz=2, workdir=tmp_path,
+                 duration_s=DURATION_S)
+    assert result["reuploaded"]
+    assert result["odometry_interval_median_s"] >= 0.4, result
+    check_flight(result, MISSION_A[:1] + MISSION_B)
+    assert result["report_mission"]["reached"] == [1, 2, 3], result["report_mission"]
