@@ -10,6 +10,7 @@ tlog), the MISSION_ACKs seen, the companion's rate warnings, the waypoints flown
 and the clearance.
 
     python -m benchmarks.gcs_layout --upload during [--speedup 1] [--reupload] [--gcs-rate-hz 2]
+    python -m benchmarks.gcs_layout --upload after --speedup 4 --rates 10,4,2   # side by side
 """
 from __future__ import annotations
 
@@ -202,10 +203,13 @@ def measure(layout: Layout, waypoints) -> dict:
     boot_ms = None
     first_setpoint_boot_ms = None
     acks = []
+    odometry_ms = []
     for _, msg in records:
         kind = msg.get_type()
         if msg.get_srcSystem() == 1 and hasattr(msg, "time_boot_ms"):
             boot_ms = msg.time_boot_ms
+            if kind == "LOCAL_POSITION_NED":
+                odometry_ms.append(boot_ms)
         if kind == "MISSION_ACK":
             acks.append((msg.get_srcSystem(), msg.get_srcComponent(), msg.target_system,
                          msg.target_component, msg.type))
@@ -225,7 +229,17 @@ def measure(layout: Layout, waypoints) -> dict:
     clearance = min((math.hypot(r["north_m"] - o["north_m"], r["east_m"] - o["east_m"])
                      - o.get("radius_m", 0.0) * 0 for r in flying for o in r["obstacles"]),
                     default=None)
+    # the odometry's interval while commanding (vehicle time): what the link delivered
+    commanding = [t for t in odometry_ms if first_setpoint_boot_ms is not None
+                  and t >= first_setpoint_boot_ms]
+    intervals = sorted(b - a for a, b in zip(commanding, commanding[1:]) if b > a)
+    relative = [t - reached[0] if t is not None and reached else None for t in order]
     return {
+        "odometry_interval_median_s": intervals[len(intervals) // 2] / 1e3 if intervals else None,
+        "odometry_interval_mean_s": sum(intervals) / len(intervals) / 1e3 if intervals else None,
+        "waypoint_after_alt_s": relative,
+        "estimator_state_changes": [(c["t_s"], c["state"]) for c in
+                                    report.get("estimator_state_changes") or []],
         "alt_reached_t_s": reached[0] if reached else None,
         "first_setpoint_t_s": first_setpoint_boot_ms / 1e3 if first_setpoint_boot_ms else None,
         "handover_s": (first_setpoint_boot_ms / 1e3 - reached[0])
@@ -309,6 +323,46 @@ def run(upload: str, speedup: float, reupload: bool, gcs_rate_hz: int | None,
     return result
 
 
+def rate_table(rates_hz, upload: str, speedup: float, workdir: Path, duration_s: float) -> list:
+    """One flight per odometry rate, side by side (issue 32): the companion's own 10 Hz
+    request (rate 10: no ground station rate) or a ground station setting every stream to the
+    rate (REQUEST_DATA_STREAM every 5 s of vehicle time, as MAVProxy re-asks)."""
+    rows = []
+    for rate in rates_hz:
+        flight_dir = workdir / f"{rate}hz"
+        flight_dir.mkdir(parents=True, exist_ok=True)
+        result = run(upload, speedup, False, None if rate == 10 else rate, flight_dir, duration_s)
+        times = result["waypoint_t_s"]
+        airborne = result["airborne_t_s"]
+        checks = (None not in times and times == sorted(times)
+                  and result["clearance_m"] is not None and result["clearance_m"] >= 9.5
+                  and airborne is not None and result["alt_reached_t_s"] is not None
+                  and airborne - result["alt_reached_t_s"] <= 5.0)
+        rows.append({"rate_hz": rate, "odometry_interval_mean_s":
+                     result["odometry_interval_mean_s"],
+                     "waypoint_after_alt_s": result["waypoint_after_alt_s"],
+                     "airborne_after_alt_s": (airborne - result["alt_reached_t_s"])
+                     if airborne is not None and result["alt_reached_t_s"] is not None else None,
+                     "clearance_m": result["clearance_m"],
+                     "estimator_state_changes": result["estimator_state_changes"],
+                     "checks_hold": checks})
+    return rows
+
+
+def print_table(rows) -> None:
+    print(f"{'rate':>5} {'odom dt':>8} {'waypoints after take-off altitude (s)':>38} "
+          f"{'airborne':>9} {'clearance':>10} {'estimator':>10} checks")
+    for row in rows:
+        wps = "/".join("-" if t is None else f"{t:.1f}" for t in row["waypoint_after_alt_s"])
+        states = ",".join(state for _, state in row["estimator_state_changes"]) or "-"
+        dt = row["odometry_interval_mean_s"]
+        airborne = row["airborne_after_alt_s"]
+        print(f"{row['rate_hz']:>4}Hz {'-' if dt is None else f'{dt:.2f} s':>8} {wps:>38} "
+              f"{'-' if airborne is None else f'{airborne:.1f} s':>9} "
+              f"{row['clearance_m'] or 0.0:>8.2f} m {states:>10} "
+              f"{'hold' if row['checks_hold'] else 'FAIL'}")
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--upload", choices=("before", "during", "after"), default="during")
@@ -317,9 +371,19 @@ def main() -> None:
     p.add_argument("--gcs-rate-hz", type=int)
     p.add_argument("--duration-s", type=float, default=150.0, help="vehicle seconds at most")
     p.add_argument("--keep", metavar="DIR")
+    p.add_argument("--rates", metavar="HZ,HZ,...",
+                   help="one flight per odometry rate, printed side by side (10: the companion's "
+                        "own request; others: the ground station sets all streams to it), e.g. "
+                        "10,4,2; --reupload and --gcs-rate-hz are then ignored")
     args = p.parse_args()
     workdir = Path(args.keep) if args.keep else Path(tempfile.mkdtemp(prefix="gcs_layout_"))
     workdir.mkdir(parents=True, exist_ok=True)
+    if args.rates:
+        rows = rate_table([int(r) for r in args.rates.split(",")], args.upload, args.speedup,
+                          workdir, args.duration_s)
+        print(json.dumps(rows, indent=1))
+        print_table(rows)
+        return
     print(json.dumps(run(args.upload, args.speedup, args.reupload, args.gcs_rate_hz, workdir,
                          args.duration_s), indent=1))
 

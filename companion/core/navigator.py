@@ -21,6 +21,8 @@ from companion.core.estimation.ekf_slam import EkfSlam
 from companion.core.estimation.slam_types import (AssociationGates, Observation, SlamNoise,
                                                   UpdateReport)
 from companion.core.estimator_options import EstimatorOptions, moderate
+from companion.core.sample_interval import (MeanInterval, at_least_reference_s,
+                                            interval_turn_rate, long_interval)
 from companion.core.geometry import is_visible, move, move_velocity, place, wrap_angle
 from companion.core.estimation.lifecycle import Lifecycle, expected_visible
 from companion.core.estimation.map_archive import MapArchive, stale
@@ -47,7 +49,7 @@ MOVED_GATE_M = 1.5             # ...plus this, between two sightings...
 MOVED_MAX_GAP_S = 1.0          # ...at most this long apart (five frames missed in a row at 5 Hz):
                                # a young landmark unseen for longer is no track to extend (its reach
                                # would grow without bound and take another obstacle's sightings)
-FRAME_TIMING_UNCERTAINTY_S = 0.05   # half an odometry period
+FRAME_TIMING_UNCERTAINTY_S = 0.05   # half an odometry period at 10 Hz; half the measured one if longer
 SAME_TIME_TOLERANCE_S = 1e-3
 LOOK_COURSE_MIN_SPEED_MPS = 0.5   # slower, the velocity's direction is noise: the last choice's
 NO_LOOK_MODES = ("arrived", "arrival_uncertain")
@@ -164,6 +166,7 @@ class Navigator:
         self._next_anonymous_id = -1
         self._turn_rate_rad_s = 0.0
         self._frame_timing_s = 0.0      # how far the heading used may be from the frame's time
+        self._odometry_intervals = MeanInterval()   # the odometry's measured period (issue 32)
         self._point_sigma_m = math.hypot(noise.range_sigma_m, 40.0 * noise.bearing_sigma_rad)
         self.t_s: float | None = None          # time of the last odometry the filter has absorbed
         self._yaw_rad: float | None = None
@@ -213,6 +216,7 @@ class Navigator:
         if dt <= 0.0:
             self._reject("odometry_not_newer")
             return []
+        self._odometry_intervals.add(dt)
         turn = wrap_angle(yaw_rad - self._yaw_rad)
         # A frame captured inside this interval (its own odometry sample was lost) is observed
         # at its time: predict to it on a pro-rata share of the interval, then the rest. The
@@ -231,7 +235,7 @@ class Navigator:
                 self.predict(speed_mps, share, part, speed_var_scale=dt / part,
                              heading_var_extra=(2.0 * turn * fraction * (1.0 - fraction)) ** 2)
                 cursor, turned = frame_t_s, turned + share
-            self._frame_timing_s = FRAME_TIMING_UNCERTAINTY_S
+            self._frame_timing_s = at_least_reference_s(0.5 * dt, FRAME_TIMING_UNCERTAINTY_S)
             reports.extend(self.observe(observations))
             self._frame_timing_s = 0.0
         rest = t_s - cursor
@@ -261,10 +265,15 @@ class Navigator:
         if dt <= 0.0:
             self._reject("odometry_not_newer")
             return []
+        self._odometry_intervals.add(dt)
+        yaw_var_extra = 0.0
         if self.options.velocity_in_yaw_frame and self._yaw_rad is not None:
             # the autopilot's yaw is its gyro's integral: its change is the exact turn over the
             # interval, samples lost on the way included (the rate at one end is not)
             yaw_rate_rad_s = wrap_angle(yaw_rad - self._yaw_rad) / dt
+        elif long_interval(dt, self.slam.noise.reference_dt_s) and self._yaw_rad is not None:
+            yaw_rate_rad_s, yaw_var_extra = interval_turn_rate(
+                self._yaw_rad, yaw_rad, dt, self.options.yaw_sigma_rad)
         last_north, last_east = self._last_velocity or (vel_north_mps, vel_east_mps)
         self._last_velocity = (vel_north_mps, vel_east_mps)
         vel_north_mps = 0.5 * (vel_north_mps + last_north)
@@ -276,14 +285,15 @@ class Navigator:
             part = frame_t_s - cursor
             if part > SAME_TIME_TOLERANCE_S:
                 self.predict_velocity(vel_north_mps, vel_east_mps, yaw_rate_rad_s, part,
-                                      var_scale=dt / part)
+                                      var_scale=dt / part, yaw_var_extra=yaw_var_extra * part / dt)
                 cursor = frame_t_s
-            self._frame_timing_s = FRAME_TIMING_UNCERTAINTY_S
+            self._frame_timing_s = at_least_reference_s(0.5 * dt, FRAME_TIMING_UNCERTAINTY_S)
             reports.extend(self.observe(observations))
             self._frame_timing_s = 0.0
         rest = t_s - cursor
         self.predict_velocity(vel_north_mps, vel_east_mps, yaw_rate_rad_s, rest,
-                              var_scale=1.0 if cursor == start else dt / rest)
+                              var_scale=1.0 if cursor == start else dt / rest,
+                              yaw_var_extra=yaw_var_extra * rest / dt)
         self.correct_yaw(yaw_rad, dt)
         self.t_s, self._yaw_rad = t_s, yaw_rad
         return reports + self._release()
@@ -338,7 +348,7 @@ class Navigator:
             self._turn_rate_rad_s = abs(heading_change_rad) / dt_s
 
     def predict_velocity(self, vel_north_mps: float, vel_east_mps: float, yaw_rate_rad_s: float,
-                         dt_s: float, var_scale: float = 1.0) -> None:
+                         dt_s: float, var_scale: float = 1.0, yaw_var_extra: float = 0.0) -> None:
         """The multicopter model's predict (see EkfSlam.predict_velocity). With
         ``options.velocity_in_yaw_frame`` the velocity is taken as turned by the autopilot's own
         yaw: the yaw state's offset from the last reported yaw (both advance by the same rate)."""
@@ -349,6 +359,8 @@ class Navigator:
                                 - yaw_rate_rad_s * (self.clock_s - self.t_s))
         self.slam.predict_velocity(vel_north_mps, vel_east_mps, yaw_rate_rad_s, dt_s,
                                    self.options.velocity_noise, var_scale, offset)
+        if yaw_var_extra > 0.0:
+            self.slam.inflate_yaw(yaw_var_extra)      # process noise of this predict's
         self._yaw_var_mark = float(self.slam.cov[2, 2])   # a predict carries the error over whole
         self.clock_s += max(dt_s, 0.0)
         self._dr_pose = move_velocity(self._dr_pose, vel_north_mps, vel_east_mps, yaw_rate_rad_s,
@@ -841,8 +853,7 @@ class Navigator:
             return young.apparent[1].copy(), young.apparent[2]
         times = np.array(young.times)
         velocity, sigma = apparent_velocity(times, np.array(young.points), max(young.free_sigmas),
-                                            self._dr_speed_sigma_mps(),
-                                            self.slam.noise.reference_dt_s)
+                                            self._dr_speed_sigma_mps(), self._odometry_dt_s())
         if max(young.yaw_vars) > 0.0:
             shared = shared_yaw_velocity_cov(times, young.ranges, young.directions,
                                              young.yaw_vars, young.yaw_logs)
@@ -854,8 +865,15 @@ class Navigator:
         """Each dead-reckoned point's sigma for the straight-track test: its own, plus the dead
         reckoning's random walk over the track's span (what a line does not absorb of it)."""
         span = young.times[-1] - young.times[0]
-        walk_var = self._dr_speed_sigma_mps() ** 2 * self.slam.noise.reference_dt_s * span
+        walk_var = self._dr_speed_sigma_mps() ** 2 * self._odometry_dt_s() * span
         return np.sqrt(np.asarray(young.sigmas) ** 2 + walk_var)
+
+    def _odometry_dt_s(self) -> float:
+        """The period of one odometry sample, whose error the dead reckoning accumulates: the
+        measured one where the link delivers less than the reference rate (a ground station set
+        the streams), else the reference."""
+        return at_least_reference_s(self._odometry_intervals.mean_s,
+                                    self.slam.noise.reference_dt_s)
 
     def _dr_speed_sigma_mps(self) -> float:
         if self.options.motion_model == "velocity_ned":

@@ -38,6 +38,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from companion.onboard import odometry_intake
+from companion.core.sample_interval import setpoint_interval_s
 from companion.mavlink import codec
 from companion.config.checks import PLAUSIBLE_SPEED_MPS
 from companion.config.service import CompanionConfig, GoalConfig
@@ -196,6 +197,7 @@ class Pipeline:
         self.geo_reference: codec.GeoReference | None = None   # the EKF origin (or HOME)
         self._fly_to_active = False
         self._last_shaped = None        # the last setpoint's velocity direction and nose (SLAM)
+        self._last_shaped_t_s: float | None = None      # ... and its time
         # The camera frame being assembled: one OBSTACLE_DISTANCE_3D per obstacle, all with the
         # frame's time, are one chance for the landmark lifecycle, not one each.
         self._frame: _FrameAssembly | None = None
@@ -511,7 +513,7 @@ class Pipeline:
 
     def _reset_estimate(self) -> None:
         self.navigator = None
-        self._last_shaped = None
+        self._last_shaped = self._last_shaped_t_s = None
         self.reset_counter += 1
         self._attitudes.clear()
         self._held_position = None
@@ -785,10 +787,13 @@ class Pipeline:
         if the command looks at one."""
         commanding = self.config.commanding
         slam_yaw = float(self.navigator.slam.pose[2])
+        # turn-limited over the interval the setpoints come at (a GCS may have slowed the streams)
+        interval_s = setpoint_interval_s(t_s, self._last_shaped_t_s, commanding.setpoint_period_s,
+                                         commanding.max_attitude_age_s)
         shaped = shape_setpoint(slam_yaw, self._last_shaped, command,
-                                commanding.max_turn_rate_rad_s, commanding.setpoint_period_s,
+                                commanding.max_turn_rate_rad_s, interval_s,
                                 commanding.max_speed_mps)
-        self._last_shaped = shaped
+        self._last_shaped, self._last_shaped_t_s = shaped, t_s
         # The autopilot's yaw drifts from the SLAM yaw; fly the SLAM heading in its frame.
         offset = self._ap_yaw_rad - slam_yaw
         heading_ap = wrap_angle(shaped.course_rad + offset)

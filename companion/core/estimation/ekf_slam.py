@@ -346,6 +346,11 @@ class EkfSlam:
             self._cov_buf[0, 0] += var_m2
             self._cov_buf[1, 1] += var_m2
 
+    def inflate_yaw(self, var_rad2: float) -> None:
+        """Add ``var_rad2`` to the vehicle's yaw variance (process noise on the yaw alone)."""
+        if var_rad2 > 0.0:
+            self._cov_buf[2, 2] += var_rad2
+
     def update_position(self, north_m: float, east_m: float, sigma_m: float,
                         gate_nis: float) -> UpdateReport:
         """Correct with a horizontal position fix (the autopilot's LOCAL_POSITION_NED x, y),
