@@ -98,7 +98,16 @@ def demo_config(scenario: Scenario, base_path: str = "config/companion.yaml",
     return dataclasses.replace(base, estimator=estimator,
                                avoidance=scenario.avoidance, commanding=commanding,
                                goal=GoalConfig(goal.north_m, goal.east_m, goal.radius_m),
-                               flight=dataclasses.replace(base.flight, takeoff_alt_m=TAKEOFF_ALT_M))
+                               flight=dataclasses.replace(base.flight, takeoff_alt_m=TAKEOFF_ALT_M),
+                               perception=scenario_perception(scenario))
+
+
+def scenario_perception(scenario: Scenario):
+    """The scenario's perception section, its camera's vertical view filled in from its sensor."""
+    perception = scenario.perception
+    if perception.camera_vfov_deg is None:
+        perception = dataclasses.replace(perception, camera_vfov_deg=scenario.sensor.vfov_deg)
+    return perception
 
 
 class Child:
