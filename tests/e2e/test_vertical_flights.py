@@ -133,3 +133,25 @@ def test_held_out_a_ceiling_below_the_wall_s_top_goes_round(tmp_path):
     assert max(r["up_m"] for r in flying) <= 15.0 + TOLERANCE_M
     at_wall = [r for r in flying if abs(r["north_m"] - 100.0) <= 2.0]
     assert all(abs(r["east_m"]) > 30.0 for r in at_wall)          # round its end
+
+
+GROUND = REPO / "config" / "scenarios" / "ground.yaml"
+
+
+@pytest.mark.parametrize("sees_ground", [True, pytest.param(False, marks=pytest.mark.slow)])
+def test_a_floor_seeing_camera_flies_the_paper_leg_as_one_that_does_not(tmp_path, sees_ground):
+    """ground.yaml: the paper's two unbounded columns, the camera's floor returns dropped and
+    counted, never mapped; the outcome that of the camera without them."""
+    scenario = yaml.safe_load(GROUND.read_text())
+    scenario["sensor"]["sees_ground"] = sees_ground
+    # columns taller than any altitude flown: a 3D world either way (the stub's 2D camera says
+    # z 0, which a 3D service would take for a top at its own altitude)
+    for obstacle in scenario["world"]["obstacles"]:
+        obstacle["height_m"] = 100.0
+    flying, _, result = fly(tmp_path, scenario)
+    assert result["arrived"]
+    assert min_clearance_m(flying) >= D_M - TOLERANCE_M
+    assert {lm["id"] for lm in result["landmarks"]} <= {1, 2}
+    points = result["vertical"]["points"]
+    assert (points["ground"] > 500) if sees_ground else points["ground"] == 0
+    assert max(r["up_m"] for r in flying) <= CRUISE_M + 1.5   # nothing to climb over

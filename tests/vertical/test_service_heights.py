@@ -148,3 +148,49 @@ def test_no_setpoint_while_not_airborne_with_vertical_on():
     for _ in range(100):
         feed.step()
     assert setpoints(feed.outputs) == []
+
+
+@pytest.mark.parametrize("z", [math.nan, math.inf, -math.inf])
+def test_a_point_with_a_non_finite_z_is_refused_and_counted(z):
+    from pymavlink.dialects.v20 import ardupilotmega as mavlink
+    msg = mavlink.MAVLink_obstacle_distance_3d_message(
+        10_000, 0, mavlink.MAV_FRAME_BODY_FRD, 4, 20.0, 1.0, z, 0.2, 40.0)
+    frame = codec._obstacle_3d(msg, 1, 100)
+    assert frame.observations == () and frame.rejected
+    feed = Feed3D(Pipeline(vertical_config(), GOAL), [], floor=False)
+    feed.send(hb())
+    for _ in range(5):
+        feed.step()
+    feed.send(dataclasses.replace(frame, t_s=feed.t_s))
+    feed.step()
+    assert feed.p.counters.get("obstacle_rejected") == 1
+    assert snapshot(feed.p)["landmarks"] == []
+
+
+def test_a_finite_z_rides_on_the_observation():
+    from pymavlink.dialects.v20 import ardupilotmega as mavlink
+    msg = mavlink.MAVLink_obstacle_distance_3d_message(
+        10_000, 0, mavlink.MAV_FRAME_BODY_FRD, 4, 20.0, 1.0, -3.5, 0.2, 40.0)
+    (obs,) = codec._obstacle_3d(msg, 1, 100).observations
+    assert obs.top_down_m == obs.bottom_down_m == pytest.approx(-3.5)
+
+
+@pytest.mark.parametrize("section, text, key, problem", [
+    ("perception", "camera_vfov_deg: 200", "perception.camera_vfov_deg", "(0, 180)"),
+    ("perception", "ground_margin_m: -1", "perception.ground_margin_m", "a margin >= 0 m"),
+    ("avoidance", "max_altitude_m: 1.0", "avoidance.max_altitude_m", "above min_altitude_m"),
+    ("perception", "ground_margn_m: 1", "perception.ground_margn_m", "unknown key"),
+])
+def test_a_bad_3d_key_in_the_service_config_names_file_key_and_problem(tmp_path, section, text,
+                                                                       key, problem):
+    import yaml
+    from companion.config.loader import ConfigError
+    data = yaml.safe_load(open("config/companion.yaml"))
+    key_name, value = text.split(": ")
+    data.setdefault(section, {})[key_name] = yaml.safe_load(value)
+    path = tmp_path / "bad.yaml"
+    path.write_text(yaml.safe_dump(data))
+    with pytest.raises(ConfigError) as err:
+        load_config(path)
+    message = str(err.value)
+    assert str(path) in message and key in message and problem in message, message
