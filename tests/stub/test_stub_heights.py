@@ -152,3 +152,21 @@ def test_a_2d_world_sends_what_it_sent_before():
     out = [msg for _, msg in CameraComponent(sim).periodic(0.0)
            if msg.get_type() == "OBSTACLE_DISTANCE_3D"]
     assert [m.obstacle_id for m in out] == [1] and out[0].z == 0.0      # one point, z 0
+
+
+def test_the_camera_beside_an_autopilot_reports_z_from_its_altitude_in_a_3d_world():
+    from .test_external_camera import attitude, autopilot_heartbeat, heard, origin_at
+    from pymavlink.dialects.v20 import ardupilotmega as mavlink
+    from sitl_stub.external_camera import ExternalCamera
+    scenario = load_scenario(LOWWALL)            # 3 m posts across north 100
+    cam = ExternalCamera(scenario, np.random.default_rng(0))
+    cam.handle(autopilot_heartbeat(), 0.0)
+    cam.handle(origin_at(0.0, 0.0), 0.0)
+    out = []
+    for t_ms in range(1000, 2000, 100):          # 12 m up at north 75: the wall 25 m ahead
+        out += cam.handle(attitude(t_ms), 0.0)
+        out += cam.handle(heard(7, 1, mavlink.MAVLink_local_position_ned_message(
+            t_ms, 75.0, 0.0, -12.0, 0, 0, 0)), 0.0)
+    points = [m for m in out if m.get_type() == "OBSTACLE_DISTANCE_3D" and m.obstacle_id == 8]
+    assert len(points) >= 2 and len(points) % 2 == 0
+    assert points[0].z == pytest.approx(9.0, abs=0.3) and points[1].z == pytest.approx(12.0, abs=0.3)
