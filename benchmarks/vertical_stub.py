@@ -2,6 +2,7 @@
 tests/e2e/test_vertical_flights.py, each with avoidance.vertical on and off, printed as a table.
 
     python -m benchmarks.vertical_stub [--kinds lowwall,side_by_side,bridge,ceiling]
+                                       [--seeds 1] [--vertical on,off]
 
 Per flight: arrived, arrival time (vehicle s), horizontal path from take-off to arrival, climb
 (sum of rises after the take-off), lowest and highest altitude after it, altitude at arrival,
@@ -44,24 +45,31 @@ def figures(flying: list[dict], result: dict) -> dict:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--kinds", default=",".join(KINDS))
+    parser.add_argument("--seeds", default="1", help="the stub's seeds, comma-separated")
+    parser.add_argument("--vertical", default="on,off")
     args = parser.parse_args()
-    print(f"{'world':13s} {'3D':3s} {'arr':4s} {'t_s':>6s} {'path_m':>7s} {'climb_m':>7s} "
+    print(f"{'world':13s} {'seed':>4s} {'3D':3s} {'arr':4s} {'t_s':>6s} {'path_m':>7s} {'climb_m':>7s} "
           f"{'min_up':>6s} {'max_up':>6s} {'final':>6s} {'clear_m':>7s}")
     for kind in args.kinds.split(","):
         make, avoidance = KINDS[kind]
-        for vertical in (True, False):
-            with tempfile.TemporaryDirectory() as tmp:
-                try:
-                    flying, _, result = flights.fly(Path(tmp), make(),
-                                                    **{**avoidance, "vertical": vertical})
-                except AssertionError as exc:       # no arrival within the flight's time
-                    print(f"{kind:13s} {'on' if vertical else 'off':3s} failed: {exc}")
-                    continue
-            f = figures(flying, result)
-            print(f"{kind:13s} {'on' if vertical else 'off':3s} {str(f['arrived']):4s} "
-                  f"{f['t_s']:6.1f} {f['path_m']:7.1f} {f['climb_m']:7.1f} {f['min_up_m']:6.1f} "
-                  f"{f['max_up_m']:6.1f} "
-                  f"{f['final_up_m']:6.1f} {f['clearance_m']:7.2f}")
+        for seed in map(int, args.seeds.split(",")):
+            for vertical in (v == "on" for v in args.vertical.split(",")):
+                row(kind, seed, vertical, make, avoidance)
+
+
+def row(kind: str, seed: int, vertical: bool, make, avoidance: dict) -> None:
+    on = "on" if vertical else "off"
+    with tempfile.TemporaryDirectory() as tmp:
+        try:
+            flying, _, result = flights.fly(Path(tmp), make(), seed=seed,
+                                            **{**avoidance, "vertical": vertical})
+        except AssertionError as exc:       # no arrival, or a setpoint out of its bounds
+            print(f"{kind:13s} {seed:4d} {on:3s} failed: {str(exc)[:120]}")
+            return
+    f = figures(flying, result)
+    print(f"{kind:13s} {seed:4d} {on:3s} {str(f['arrived']):4s} {f['t_s']:6.1f} "
+          f"{f['path_m']:7.1f} {f['climb_m']:7.1f} {f['min_up_m']:6.1f} {f['max_up_m']:6.1f} "
+          f"{f['final_up_m']:6.1f} {f['clearance_m']:7.2f}", flush=True)
 
 
 if __name__ == "__main__":

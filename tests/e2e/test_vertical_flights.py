@@ -50,12 +50,12 @@ def posts(north_m: float, east_from_m: float, east_to_m: float, first_id: int, *
             for k, e in enumerate(east)]
 
 
-def fly(tmp_path, scenario: dict, **avoidance):
+def fly(tmp_path, scenario: dict, seed: int = 1, **avoidance):
     """One flight to (180, 0); returns (truth rows while armed up to arrival, setpoints, report)."""
     scenario_path = tmp_path / "scenario.yaml"
     scenario_path.write_text(yaml.safe_dump(scenario))
     truth_path, tlog, report = tmp_path / "truth.jsonl", tmp_path / "run.tlog", tmp_path / "r.json"
-    stub, tcp_port, udp_port = start_stub(tmp_path, "--speedup", SPEEDUP, "--seed", "1",
+    stub, tcp_port, udp_port = start_stub(tmp_path, "--speedup", SPEEDUP, "--seed", str(seed),
                                           "--truth-log", str(truth_path),
                                           scenario=scenario_path, lockstep=True)
     processes = [stub]
