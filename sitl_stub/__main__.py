@@ -67,6 +67,16 @@ class Options:
     boot_intervals: tuple[tuple[int, float], ...] = ()     # (message id, Hz) every link starts with
 
 
+def _extent_record(world, obstacle_id: int) -> dict:
+    """height_m / base_m of an obstacle, wall or building in the truth log, only where the
+    scenario gives them (a 2D world's lines stay as they were)."""
+    for item in world.obstacles + world.shapes:
+        if item.obstacle_id == obstacle_id:
+            out = {} if item.height_m is None else {"height_m": item.height_m}
+            return {**out, "base_m": item.base_m} if item.base_m > 0.0 else out
+    return {}
+
+
 class TruthLog:
     """JSON lines of the true state; flushed at least once per wall-clock second and on close."""
 
@@ -83,7 +93,8 @@ class TruthLog:
             "mode": MODE_NAMES.get(ap.mode, str(ap.mode)),
             "vel_north_mps": truth.vel_north_mps, "vel_east_mps": truth.vel_east_mps,
             "up_m": truth.up_m, "vel_up_mps": truth.vel_up_mps, "landed": ap.flight.land_complete,
-            "obstacles": [{"id": i, "north_m": n, "east_m": e, "radius_m": r}
+            "obstacles": [{"id": i, "north_m": n, "east_m": e, "radius_m": r,
+                           **_extent_record(sim.scenario.world, i)}
                           for i, n, e, r in obstacles_at(sim.scenario.world.obstacles, t_s)],
             # the stub's own distance to the nearest wall or building surface (negative: inside)
             "shape_clearance_m": min((shapes.surface_distance_m(truth.north_m, truth.east_m,
@@ -93,7 +104,8 @@ class TruthLog:
         }
         if not self._shapes_written:      # static: once, on the first line (a viewer reads it)
             record["shapes"] = [{"id": shape.obstacle_id, "kind": shape.kind,
-                                 "outline": [list(point) for point in shape.outline]}
+                                 "outline": [list(point) for point in shape.outline],
+                                 **_extent_record(sim.scenario.world, shape.obstacle_id)}
                                 for shape in sim.scenario.world.shapes]
             self._shapes_written = True
         self._file.write(json.dumps(record) + "\n")

@@ -14,7 +14,9 @@ class CameraComponent:
 
     Frames are captured on physics steps: the first step at or after each nominal frame time.
     All reports of one frame share that step's time_boot_ms. Reporting does not depend on
-    arming or mode.
+    arming or mode. In a 3D world (world.py) each detection is two points, its highest and its
+    lowest seen (telemetry.obstacle_points_3d), and a floor-seeing camera adds its floor
+    returns, id-less, after them.
     """
 
     def __init__(self, sim: Simulation) -> None:
@@ -34,15 +36,18 @@ class CameraComponent:
         if t_s + 1e-9 >= self._next_frame_s:
             form = self.cfg.form
             detections = self.sim.observe() if form != "sectors" else []
+            floor = self.sim.ground_points() if form != "sectors" else []
             self.frames += 1
             self.last_frame = detections
             for det in detections:
-                out.append((tm.COMP_CAMERA, tm.obstacle_distance_3d(det, t_s, self.cfg)))
+                out.extend((tm.COMP_CAMERA, msg) for msg in tm.obstacle_points_3d(det, t_s, self.cfg))
+            for point in floor:
+                out.append((tm.COMP_CAMERA, tm.ground_point_3d(point, t_s, self.cfg)))
             if form in ("sectors", "both"):
                 # a depth camera: its own ray-cast sectors every frame (sensor.form)
                 out.append((tm.COMP_CAMERA, tm.obstacle_distance(
                     [], t_s, self.cfg, self.sim.scan_sectors())))
-            elif self.cfg.sector_message or not detections:
+            elif self.cfg.sector_message or not (detections or floor):
                 # Nothing seen is still a frame: an OBSTACLE_DISTANCE with every sector at
                 # max_distance + 1, as depth cameras send it, so the receiver knows the camera
                 # is live (its heartbeat alone says nothing about its data).

@@ -21,8 +21,11 @@ What it does, in the autopilot's terms:
   stamped with that message's time_boot_ms; `sensor.form` as the in-stub camera honours it
   (sectors: the nearest surface per bin, ray-cast against circles, walls and buildings; both:
   centres and sectors). The camera's view is the autopilot's estimate of the
-  pose (in SITL within a few decimetres of the truth), level, at the vehicle's altitude: the
-  scenario's obstacles are columns.
+  pose (in SITL within a few decimetres of the truth), level, at the vehicle's altitude: in a
+  2D world the scenario's obstacles are columns; in a 3D world (world.py: heights, bases or
+  sensor.sees_ground) the altitude is LOCAL_POSITION_NED -z (the EKF origin, on the ground at
+  boot, is altitude 0) and the frames are the in-stub camera's 3D ones (two points per
+  detection with their z, the floor's returns; camera.py), heights from their own stream.
 - Moving obstacles start from their scenario positions when the vehicle first arms (a real
   autopilot needs tens of seconds before it can arm; the in-stub world starts at boot).
 - Heartbeat at 1 Hz of the autopilot's time (so a speeded-up SITL sees it at 1 Hz of its own
@@ -41,7 +44,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from . import camera
 from . import telemetry as tm
-from .world import Origin, Scenario, obstacles_at, wrap_pi
+from .world import Origin, Scenario, extents_of, obstacles_at, wrap_pi
 
 log = logging.getLogger(__name__)
 
@@ -85,6 +88,9 @@ class ExternalCamera:
         self.sectors = self.cfg.sector_message if sectors is None else sectors
         self._outlines = [list(shape.outline) for shape in scenario.world.shapes]
         self.rng = rng
+        self._extents = extents_of(scenario.world)
+        self._rng_heights = np.random.default_rng([int(rng.integers(2 ** 31)), 7]) \
+            if scenario.reports_z else None
         self.sysid = sysid
         self._pinned_placement = placement
         self.placement = placement
@@ -135,7 +141,7 @@ class ExternalCamera:
             self._last_pose_wall_s = wall_s
             if not self._clock(t_s):
                 return []
-            return self._heartbeat_due(wall_s) + self._frame(t_s, msg.x, msg.y)
+            return self._heartbeat_due(wall_s) + self._frame(t_s, msg.x, msg.y, msg.z)
         return []
 
     def _on_heartbeat(self, msg, src: tuple[int, int], wall_s: float) -> list:
@@ -177,7 +183,8 @@ class ExternalCamera:
         return True
 
     # ------------------------------------------------------------ frames and heartbeats
-    def _frame(self, t_s: float, local_north_m: float, local_east_m: float) -> list:
+    def _frame(self, t_s: float, local_north_m: float, local_east_m: float,
+               local_down_m: float = 0.0) -> list:
         if t_s + 1e-9 < self._next_frame_s or self.placement is None:
             return []
         yaw = self._yaw_at(t_s)
@@ -189,17 +196,25 @@ class ExternalCamera:
         motion_s = 0.0 if self.armed_t_s is None else max(0.0, t_s - self.armed_t_s)
         obstacles = obstacles_at(self.scenario.world.obstacles, motion_s)
         form = self.cfg.form
+        heights = None
+        if self._rng_heights is not None and math.isfinite(local_down_m):
+            heights = camera.Heights(max(0.0, -local_down_m), self._extents, self._rng_heights)
         detections = ([] if form == "sectors" else
-                      camera.observe(north_m, east_m, yaw, obstacles, self.cfg, self.rng))
-        out = [tm.obstacle_distance_3d(det, t_s, self.cfg) for det in detections]
+                      camera.observe(north_m, east_m, yaw, obstacles, self.cfg, self.rng,
+                                     heights))
+        out = [msg for det in detections for msg in tm.obstacle_points_3d(det, t_s, self.cfg)]
+        floor = camera.ground_points(heights, self.cfg) \
+            if heights is not None and form != "sectors" else []
+        out += [tm.ground_point_3d(point, t_s, self.cfg) for point in floor]
         if form in ("sectors", "both"):
             # a depth camera: the nearest surface per bin, ray-cast against every circle, wall
             # and building from the autopilot's pose, as the in-stub camera does
-            scan = camera.ray_cast_sectors_cm(north_m, east_m, yaw, obstacles, self.cfg, self.rng,
-                                              self._outlines)
+            scan = camera.ray_cast_sectors_cm(
+                north_m, east_m, yaw, obstacles, self.cfg, self.rng, self._outlines, heights,
+                tuple(self._extents[shape.obstacle_id] for shape in self.scenario.world.shapes))
             out.append(tm.obstacle_distance([], t_s, self.cfg, scan))
             self.counters["sector_messages"] += 1
-        elif self.sectors or not detections:
+        elif self.sectors or not (detections or floor):
             # Nothing seen is still a frame (every sector at max_distance + 1), as the stub's
             # own camera and depth cameras send it: the receiver knows the camera is live.
             out.append(tm.obstacle_distance(detections, t_s, self.cfg))

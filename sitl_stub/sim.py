@@ -12,7 +12,7 @@ import numpy as np
 from . import camera
 from .vehicle import (Demand, Limits, Odometry, TruthState, desired_climb_mps, initial_odometry,
                       step_odometry, step_truth)
-from .world import Scenario, obstacles_at, wrap_pi
+from .world import Scenario, extents_of, obstacles_at, wrap_pi
 
 # Separate, independent random streams derived from the one --seed.
 STREAM_PHYSICS = 1
@@ -21,6 +21,7 @@ STREAM_LINK_DROP = 3
 STREAM_POSITION = 4
 STREAM_YAW_BIAS = 5
 STREAM_OUTAGE = 6
+STREAM_HEIGHTS = 7            # the camera's z noise and floor returns (3D worlds only)
 
 
 def make_rng(seed: int, stream: int) -> np.random.Generator:
@@ -99,6 +100,8 @@ class Simulation:
         self.step_index = 0
         self._rng_physics = make_rng(seed, STREAM_PHYSICS)
         self._rng_camera = make_rng(seed, STREAM_CAMERA)
+        self._rng_heights = make_rng(seed, STREAM_HEIGHTS)
+        self._extents = extents_of(scenario.world)
         noise = scenario.noise
         self.position_error = PositionError(noise.position_sigma_m or 0.0,
                                             noise.position_bias_sigma_m,
@@ -210,14 +213,30 @@ class Simulation:
         """[(id, north_m, east_m, radius_m)] at the current simulated time."""
         return obstacles_at(self.scenario.world.obstacles, self.t_s)
 
+    def heights(self) -> camera.Heights | None:
+        """A 3D world's camera inputs now (true altitude, extents), None in a 2D world."""
+        if not self.scenario.reports_z:
+            return None
+        return camera.Heights(self.truth.up_m, self._extents, self._rng_heights)
+
     def scan_sectors(self) -> tuple[list[int], float, float]:
         """One depth frame captured now, from the true pose (camera.ray_cast_sectors_cm)."""
+        world = self.scenario.world
         return camera.ray_cast_sectors_cm(self.truth.north_m, self.truth.east_m,
                                           self.truth.yaw_rad, self.obstacles_now(),
                                           self.scenario.sensor, self._rng_camera,
-                                          [list(shape.outline) for shape in self.scenario.world.shapes])
+                                          [list(shape.outline) for shape in world.shapes],
+                                          self.heights(),
+                                          tuple(self._extents[shape.obstacle_id]
+                                                for shape in world.shapes))
 
     def observe(self) -> list[camera.Detection]:
         """One camera frame captured now, from the true pose."""
         return camera.observe(self.truth.north_m, self.truth.east_m, self.truth.yaw_rad,
-                              self.obstacles_now(), self.scenario.sensor, self._rng_camera)
+                              self.obstacles_now(), self.scenario.sensor, self._rng_camera,
+                              self.heights())
+
+    def ground_points(self) -> list[tuple[float, float, float]]:
+        """sensor.sees_ground: this frame's floor returns (body FRD x, y, z), else []."""
+        heights = self.heights()
+        return camera.ground_points(heights, self.scenario.sensor) if heights is not None else []

@@ -261,10 +261,32 @@ def ftp_nak(request_payload: list[int] | bytes, error_code: int, target_system: 
 
 
 def obstacle_distance_3d(det: camera.Detection, t_s: float,
-                         cfg: SensorConfig) -> mavlink.MAVLink_message:
+                         cfg: SensorConfig, z_m: float = 0.0,
+                         point: tuple[float, float] | None = None) -> mavlink.MAVLink_message:
+    """One point in BODY_FRD: the detection's centre x, y (or ``point``) at depth ``z_m``
+    (down; 0: the 2D camera's, at the camera's height)."""
+    x_m, y_m = point if point is not None else (det.x_m, det.y_m)
     return mavlink.MAVLink_obstacle_distance_3d_message(
         time_boot_ms(t_s), mavlink.MAV_DISTANCE_SENSOR_UNKNOWN, mavlink.MAV_FRAME_BODY_FRD,
-        det.obstacle_id, det.x_m, det.y_m, 0.0, camera.MIN_DISTANCE_M, cfg.max_range_m)
+        det.obstacle_id, x_m, y_m, z_m, camera.MIN_DISTANCE_M, cfg.max_range_m)
+
+
+def obstacle_points_3d(det: camera.Detection, t_s: float,
+                       cfg: SensorConfig) -> list[mavlink.MAVLink_message]:
+    """A detection's OBSTACLE_DISTANCE_3D: one point (z 0) from the 2D camera; from a 3D
+    world's, its highest and its lowest point seen (same id, same x, y), in that order."""
+    if det.top_down_m is None or det.bottom_down_m is None:
+        return [obstacle_distance_3d(det, t_s, cfg)]
+    return [obstacle_distance_3d(det, t_s, cfg, det.top_down_m),
+            obstacle_distance_3d(det, t_s, cfg, det.bottom_down_m)]
+
+
+def ground_point_3d(point: tuple[float, float, float], t_s: float,
+                    cfg: SensorConfig) -> mavlink.MAVLink_message:
+    """A floor return: no id (UINT16_MAX), body FRD x, y, z."""
+    return mavlink.MAVLink_obstacle_distance_3d_message(
+        time_boot_ms(t_s), mavlink.MAV_DISTANCE_SENSOR_UNKNOWN, mavlink.MAV_FRAME_BODY_FRD,
+        UINT16_MAX, point[0], point[1], point[2], camera.MIN_DISTANCE_M, cfg.max_range_m)
 
 
 def obstacle_distance(detections: list[camera.Detection], t_s: float,

@@ -4,8 +4,14 @@
 Frame: LOCAL_NED, x (north_m) and y (east_m) in metres from `world.origin`, yaw clockwise from
 north. Degrees appear only in YAML keys ending in `_deg`; inside the stub everything is radians.
 
-Sections the stub does not use (`avoidance`, `estimator`) are accepted and ignored; any other
-unknown key is rejected, because it is usually a typo.
+Sections the stub does not use (`avoidance`, `estimator`, `perception`) are accepted and ignored;
+any other unknown key is rejected, because it is usually a typo.
+
+Heights (issue 27): every obstacle, wall and building may have ``height_m`` (its top above the
+ground, absent: unbounded, the 2D world's column) and ``base_m`` (its bottom, an overhang such as a
+bridge deck; default 0). The ground is at altitude 0 (LOCAL_NED z = 0, the origin). A world with
+a height, a base or ``sensor.sees_ground`` is a 3D world: its camera reports points with their
+true z (camera.py); any other world's camera is the 2D one, its messages as before.
 """
 from __future__ import annotations
 
@@ -70,6 +76,8 @@ class Obstacle:
     radius_m: float
     vel_north_mps: float = 0.0
     vel_east_mps: float = 0.0
+    height_m: float | None = None     # top above the ground (None: unbounded)
+    base_m: float = 0.0               # bottom above the ground (an overhang)
 
     def position_at(self, t_s: float) -> tuple[float, float]:
         """(north_m, east_m) of the centre at simulated time t_s since start."""
@@ -83,6 +91,8 @@ class Shape:
     obstacle_id: int
     kind: str                            # "wall" | "building"
     outline: tuple[tuple[float, float], ...]
+    height_m: float | None = None        # as Obstacle's
+    base_m: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -92,6 +102,12 @@ class WorldConfig:
     goal: Goal
     obstacles: tuple[Obstacle, ...]
     shapes: tuple[Shape, ...] = ()
+
+    @property
+    def has_heights(self) -> bool:
+        """Any obstacle, wall or building with a height or a base."""
+        return any(item.height_m is not None or item.base_m > 0.0
+                   for item in self.obstacles + self.shapes)
 
 
 @dataclass(frozen=True)
@@ -164,6 +180,11 @@ class SensorConfig:
     sector_count: int = 72         # bins over the field of view (one OBSTACLE_DISTANCE holds 72)
     # stereo range noise: sigma_r(r) = range_sigma_m + range_sigma_k_per_m * r^2 (k in 1/m)
     range_sigma_k_per_m: float = 0.0
+    # the vertical field of view (Intel's D455: 58 deg): in a 3D world an obstacle wholly above
+    # or below it is not seen, and the points reported lie within it
+    vfov_rad: float = math.radians(58.0)
+    sees_ground: bool = False          # returns from the floor (a pitched depth camera)
+    ground_points_per_frame: int = 4   # ... this many a frame, where the view meets the floor
 
     def range_sigma_at(self, range_m: float) -> float:
         """Standard deviation of a range reported at true range ``range_m``, metres."""
@@ -188,9 +209,14 @@ class Scenario:
     mission: MissionConfig | None
     path: str = ""
 
+    @property
+    def reports_z(self) -> bool:
+        """A 3D world (heights, bases or a floor-seeing camera): points carry their true z."""
+        return self.world.has_heights or self.sensor.sees_ground
+
 
 _TOP_KEYS = {"name", "world", "vehicle", "noise", "sensor", "mission"}
-_IGNORED_TOP_KEYS = {"avoidance", "estimator"}  # the companion's sections; it validates them
+_IGNORED_TOP_KEYS = {"avoidance", "estimator", "perception"}  # the companion's; it validates them
 
 
 class _Reader:
@@ -309,6 +335,9 @@ def _parse_world(r: _Reader) -> WorldConfig:
     s = r.child("start")
     start = Pose(north_m=s.number("north_m"), east_m=s.number("east_m"),
                  yaw_rad=wrap_pi(math.radians(s.number("yaw_deg"))))
+    # companion simulate's cruise altitude; the stub starts on the ground (a ground station's
+    # takeoff sets the altitude), so it only checks it
+    s.number("alt_m", 10.0, minimum=0, strict_min=True)
     s.finish()
     g = r.child("goal")
     goal = Goal(north_m=g.number("north_m"), east_m=g.number("east_m"),
@@ -331,7 +360,7 @@ def _parse_world(r: _Reader) -> WorldConfig:
             obstacle_id=oid, north_m=ob.number("north_m"), east_m=ob.number("east_m"),
             radius_m=ob.number("radius_m", minimum=0, strict_min=True),
             vel_north_mps=ob.number("vel_north_mps", 0.0),
-            vel_east_mps=ob.number("vel_east_mps", 0.0)))
+            vel_east_mps=ob.number("vel_east_mps", 0.0), **_extent(ob)))
         ob.finish()
     found = _parse_walls(r, seen) + _parse_buildings(r, seen)
     for shape, _ in found:
@@ -378,8 +407,10 @@ def _parse_walls(r: _Reader, seen: set[int]) -> list[tuple[Shape, _Reader]]:
         thickness = w.number("thickness_m", minimum=0, strict_min=True)
         if math.hypot(end[0] - start[0], end[1] - start[1]) <= shapes.DEGENERATE_M:
             raise w.error("zero-length wall: end is the same point as start", "end")
+        extent = _extent(w)
         w.finish()
-        out.append((Shape(oid, "wall", tuple(shapes.wall_outline(start, end, thickness))), w))
+        out.append((Shape(oid, "wall", tuple(shapes.wall_outline(start, end, thickness)),
+                          **extent), w))
     return out
 
 
@@ -399,9 +430,23 @@ def _parse_buildings(r: _Reader, seen: set[int]) -> list[tuple[Shape, _Reader]]:
         problem = shapes.outline_problem(corners)
         if problem is not None:
             raise b.error(problem, "corners")
+        extent = _extent(b)
         b.finish()
-        out.append((Shape(oid, "building", tuple(shapes.counter_clockwise(corners))), b))
+        out.append((Shape(oid, "building", tuple(shapes.counter_clockwise(corners)), **extent), b))
     return out
+
+
+def _extent(r: _Reader) -> dict:
+    """``height_m`` (absent: unbounded) and ``base_m`` (default 0) of one obstacle, wall or
+    building: a finite height > 0 above a finite base >= 0."""
+    base_m = r.number("base_m", 0.0, minimum=0)
+    if "height_m" not in r.data:
+        r.used.add("height_m")
+        return {"base_m": base_m}
+    height_m = r.number("height_m", minimum=0, strict_min=True)
+    if height_m <= base_m:
+        raise r.error(f"must be above base_m ({base_m:g} m), got {height_m:g}", "height_m")
+    return {"height_m": height_m, "base_m": base_m}
 
 
 VEHICLE_KINDS = ("unicycle", "multicopter")
@@ -475,7 +520,12 @@ def _parse_sensor(r: _Reader) -> SensorConfig:
         form=_form(r),
         sector_count=r.integer("sector_count", minimum=2, maximum=72)
         if "sector_count" in r.data else 72,
-        range_sigma_k_per_m=r.number("range_sigma_k_per_m", 0.0, minimum=0, maximum=1.0))
+        range_sigma_k_per_m=r.number("range_sigma_k_per_m", 0.0, minimum=0, maximum=1.0),
+        vfov_rad=math.radians(r.number("vfov_deg", 58.0, minimum=0, strict_min=True,
+                                       maximum=179.999)),
+        sees_ground=r.boolean("sees_ground", False),
+        ground_points_per_frame=r.integer("ground_points_per_frame", minimum=0, maximum=1000)
+        if "ground_points_per_frame" in r.data else 4)
     r.finish()
     return cfg
 
@@ -493,6 +543,12 @@ def wrap_pi(angle_rad: float) -> float:
     if wrapped <= 0.0:
         wrapped += 2.0 * math.pi
     return wrapped - math.pi
+
+
+def extents_of(world: WorldConfig) -> dict[int, tuple[float, float]]:
+    """{id: (base_m, top_m)} of every obstacle, wall and building (top inf: unbounded)."""
+    return {item.obstacle_id: (item.base_m, math.inf if item.height_m is None else item.height_m)
+            for item in world.obstacles + world.shapes}
 
 
 def obstacles_at(obstacles: tuple[Obstacle, ...] | list[Obstacle],

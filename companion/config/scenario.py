@@ -35,12 +35,23 @@ class MissionConfig:
 class PerceptionConfig:
     """What the companion makes of points with a z (core/perception/vertical_extent.py): a point
     at most ``ground_margin_m`` above the ground (the vehicle's altitude minus the point's depth
-    below the camera) is the floor, counted and never a landmark."""
+    below the camera) is the floor, counted and never a landmark. ``camera_vfov_deg``: the
+    camera's vertical field of view as the companion assumes it (null: the scenario's
+    sensor.vfov_deg in simulate and the demo, 58 deg, Intel's D455, for the service)."""
     ground_margin_m: float = 0.5
+    camera_vfov_deg: float | None = None
 
     def __post_init__(self) -> None:
         require(math.isfinite(self.ground_margin_m) and self.ground_margin_m >= 0.0,
                 "ground_margin_m", self.ground_margin_m, "a margin >= 0 m")
+        if self.camera_vfov_deg is not None:
+            require(math.isfinite(self.camera_vfov_deg) and 0.0 < self.camera_vfov_deg < 180.0,
+                    "camera_vfov_deg", self.camera_vfov_deg,
+                    "a vertical field of view in (0, 180) degrees or null")
+
+    def vfov_rad(self, sensor_vfov_deg: float = 58.0) -> float:
+        return math.radians(self.camera_vfov_deg if self.camera_vfov_deg is not None
+                            else sensor_vfov_deg)
 
 
 @dataclass(frozen=True)

@@ -14,6 +14,7 @@ from typing import Literal
 from companion.config.checks import PLAUSIBLE_ACCEL_MPS2, PLAUSIBLE_DELAY_S, PLAUSIBLE_SPEED_MPS, require_positive
 from companion.config.loader import FieldError, build, read_yaml, require
 from companion.config.sections import AvoidanceConfig, EstimatorConfig
+from companion.config.scenario import PerceptionConfig
 from companion.core.avoidance.arc import VehicleLimits
 from companion.core.avoidance.guidance import GuidanceParams
 from companion.core.avoidance.look_at import GoalLookParams, LookAtParams
@@ -283,6 +284,8 @@ class CompanionConfig:
     flight: FlightConfig = field(default_factory=FlightConfig)
     map_out: MapOutputConfig = field(default_factory=MapOutputConfig)
     fly_to: FlyToConfig = field(default_factory=FlyToConfig)
+    # points' z (with avoidance.vertical: the floor dropped, landmarks' heights; onboard/heights.py)
+    perception: PerceptionConfig = field(default_factory=PerceptionConfig)
 
     def __post_init__(self) -> None:
         self.goal_look_params()         # avoidance.goal_look_deg against the camera's view

@@ -256,7 +256,9 @@ def _home_position(msg, sysid: int, compid: int) -> GeoReference:
 def _obstacle_3d(msg, sysid: int, compid: int) -> ObstacleFrame:
     """OBSTACLE_DISTANCE_3D in MAV_FRAME_BODY_FRD: range = hypot(x, y), bearing = atan2(y, x).
 
-    z is ignored (the model is 2D). Other frames are refused: turning a LOCAL_NED point into a
+    z (down, metres below the camera) rides on the observation as its top and bottom depth
+    (one point: both); only avoidance.vertical reads it (onboard/heights.py). A non-finite x, y
+    or z refuses the message. Other frames are refused: turning a LOCAL_NED point into a
     range and bearing needs the pose, and that belongs to the estimator, not here.
     """
     t_s = msg.time_boot_ms / 1000.0
@@ -273,7 +275,8 @@ def _obstacle_3d(msg, sysid: int, compid: int) -> ObstacleFrame:
         return ObstacleFrame(sysid, compid, t_s, (), f"range {range_m:.2f} m outside the sensor's")
     oid = None if msg.obstacle_id == NO_OBSTACLE_ID else int(msg.obstacle_id)
     return ObstacleFrame(sysid, compid, t_s,
-                         (Observation(range_m, math.atan2(msg.y, msg.x), oid),))
+                         (Observation(range_m, math.atan2(msg.y, msg.x), oid,
+                                      top_down_m=float(msg.z), bottom_down_m=float(msg.z)),))
 
 
 def _bounds_problem(min_m: float, max_m: float) -> str | None:

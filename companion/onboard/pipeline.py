@@ -50,6 +50,7 @@ from companion.onboard.safety.clock import ClockLimits, EpochCamera, VehicleCloc
 from companion.onboard.safety.gate import SetpointGate, SetpointLimits
 from companion.onboard.safety.liveness import Liveness
 from companion.onboard.flight_phase import FlightPhase, VerticalHold
+from companion.onboard.heights import ServiceHeights
 from companion.onboard.goal import goal_north_east
 from companion.onboard.map_output import MapPublisher
 from companion.mavlink import mission_codec
@@ -182,6 +183,7 @@ class Pipeline:
         self.stopped = False            # stop_setpoint() sent: no setpoint after it
         self.phase = FlightPhase(config.flight.params())
         self.vertical = VerticalHold(config.flight.params())
+        self.heights = ServiceHeights(config)          # avoidance.vertical (onboard/heights.py)
         self._phase_said: str | None = None
         self.phase_changes: list[tuple[float, str, str]] = []   # (vehicle s, phase, source)
         self.goal_ne: tuple[float, float] | None = (
@@ -633,7 +635,8 @@ class Pipeline:
                          self.config.avoidance.strategy, self.config.union_params(),
                          est.mover_params(), est.options(), limits=self.config.vehicle_limits(),
                          look_at=self.config.look_at_params(),
-                         goal_look=self.config.goal_look_params())
+                         goal_look=self.config.goal_look_params(),
+                         extent=self.heights.extent, vertical=self.heights.vertical_params(None))
 
     def _maybe_publish_pose(self, t_s: float, out: list[Output]) -> None:
         if self._last_pose_out_t_s is not None and t_s - self._last_pose_out_t_s \
@@ -699,7 +702,8 @@ class Pipeline:
         frame, self._frame = self._frame, None
         if self.navigator is None:
             return
-        reports = self.navigator.on_observations(frame.t_s, frame.observations)
+        self._sync_heights()
+        reports = self.navigator.on_observations(frame.t_s, self.heights.frame(frame.observations))
         for report in reports:
             if report.action == "added":
                 log.info("new landmark %s (obstacle id %s)", report.landmark_index,
@@ -740,6 +744,7 @@ class Pipeline:
             self._count("estimator_restarts")
             self._reset_estimate()
             return
+        self._sync_heights()
         command, change = nav.decide(t_s)
         self.last_command = (t_s, command)
         if change is not None:
@@ -853,14 +858,22 @@ class Pipeline:
             self._count(f"no_setpoint_{decision.phase.replace(' ', '_')}")
             return
         if setpoint.reason != "stop":     # the shutdown stop: vz = 0, ArduCopter holds there
-            setpoint = dataclasses.replace(
-                setpoint, vel_down_mps=self.vertical.vel_down_mps(self.phase.up_m))
+            vel_down = self.heights.vel_down_mps(       # 3D: the decision's climb (heights.py)
+                self.navigator, self.phase.up_m, self.vertical.vel_down_mps(self.phase.up_m),
+                safe_hold=setpoint.reason.startswith("hold: "))
+            setpoint = dataclasses.replace(setpoint, vel_down_mps=vel_down)
         verdict = self.gate.check(setpoint)
         if not verdict.passed:
             self._count(f"setpoint_refused: {verdict.reason}")
             return
         self.setpoints += 1
         out.append(setpoint)
+
+    def _sync_heights(self) -> None:
+        """avoidance.vertical: the navigator's altitude and cruise altitude (onboard/heights.py)."""
+        up_m = self.phase.up_m
+        self.heights.sync(self.navigator, up_m,
+                          self.heights.cruise_up_m(self.vertical.target_up_m, up_m))
 
     def _on_urgency(self, change, out: list[Output]) -> None:
         if change.landmark_index is None:
@@ -915,4 +928,5 @@ def snapshot(pipeline: Pipeline) -> dict:
         "mission": pipeline.mission.summary() if pipeline.mission is not None else None,
         "parameters": pipeline.params.summary(),
         **odometry_intake.snapshot(nav),
+        **pipeline.heights.snapshot(nav),
     }

@@ -79,7 +79,8 @@ def make_navigator(scenario: Scenario, strategy: str | None = None,
 def extent_params(scenario: Scenario) -> ExtentParams:
     """How the companion judges points' heights (core/perception/vertical_extent.py): the camera's vertical
     view, the floor's margin, the altitude's and a point's elevation's sigmas (floored)."""
-    return ExtentParams(scenario.sensor.vfov_rad, scenario.perception.ground_margin_m,
+    return ExtentParams(scenario.perception.vfov_rad(scenario.sensor.vfov_deg),
+                        scenario.perception.ground_margin_m,
                         altitude_sigma_m=max(scenario.noise.altitude_sigma_m, 0.05),
                         elevation_sigma_rad=max(scenario.sensor.bearing_sigma_rad, 1e-3))
 

@@ -31,6 +31,7 @@ from companion.mavlink import codec
 from companion.mavlink.link import open_link
 from companion.tools.child_lifetime import die_with_parent_hook
 from companion.config.scenario import Scenario
+from companion.tools import clearance3d
 from companion.config.secrets import read_signing_key
 from companion.config.service import CompanionConfig, config_to_dict, GoalConfig, load_config
 from companion.core import shapes
@@ -98,7 +99,16 @@ def demo_config(scenario: Scenario, base_path: str = "config/companion.yaml",
     return dataclasses.replace(base, estimator=estimator,
                                avoidance=scenario.avoidance, commanding=commanding,
                                goal=GoalConfig(goal.north_m, goal.east_m, goal.radius_m),
-                               flight=dataclasses.replace(base.flight, takeoff_alt_m=TAKEOFF_ALT_M))
+                               flight=dataclasses.replace(base.flight, takeoff_alt_m=TAKEOFF_ALT_M),
+                               perception=scenario_perception(scenario))
+
+
+def scenario_perception(scenario: Scenario):
+    """The scenario's perception section, its camera's vertical view filled in from its sensor."""
+    perception = scenario.perception
+    if perception.camera_vfov_deg is None:
+        perception = dataclasses.replace(perception, camera_vfov_deg=scenario.sensor.vfov_deg)
+    return perception
 
 
 class Child:
@@ -445,12 +455,16 @@ def score(report: dict, truth: list[dict], scenario: Scenario, seed: int) -> tup
 
     after_arm = [r for r in truth if r["t_s"] >= t0]
     clearance, surface, collided = math.inf, math.inf, False
+    extents = clearance3d.extents_by_id(scenario)          # 3D: over a top, under a base
     for r in after_arm:
+        altitude = clearance3d.row_altitude_m(r) if extents else None
         for ob in r["obstacles"]:
             gap = math.hypot(r["north_m"] - ob["north_m"], r["east_m"] - ob["east_m"])
+            gap, ob_surface = clearance3d.gaps_m(gap, ob["radius_m"], altitude,
+                                                 extents.get(ob["id"], (0.0, math.inf)))
             clearance = min(clearance, gap)
-            surface = min(surface, gap - ob["radius_m"])
-            collided = collided or gap < ob["radius_m"]
+            surface = min(surface, ob_surface)
+            collided = collided or ob_surface < 0.0
     # walls and buildings are static: their surfaces against the whole true path at once
     flown = np.array([[r["north_m"], r["east_m"]] for r in after_arm]).reshape(-1, 2)
     outlines = [shape.corners_ne() for _, shape in scenario.world.shapes()]
