@@ -35,6 +35,7 @@ from companion.core.avoidance.arc import Motion, VehicleLimits
 from companion.core.avoidance.look_at import GoalLookParams, LookAtParams, goal_look_yaw, threat_to_watch
 from companion.core.estimation.movers import (MoverParams, MoverTracker, apparent_velocity, mover_growth,
                                    mover_spread, start_evidence, world_measurement)
+from companion.core.avoidance.path_follow import guide_along_path
 from companion.core.avoidance.union import UnionParams, guide_union
 from companion.core.avoidance.velocity_choice import guide_flyable
 from companion.core.avoidance import vertical as vertical3d
@@ -1120,7 +1121,8 @@ class Navigator:
                 self.commitment.side if motion is not None else self._side, velocities, motion,
                 growth, reach or None, self.seen, spread,
                 self._look_for if self.scan is not None else None)
-            guide = guide_union if motion is None else guide_flyable
+            guide = guide_union if motion is None else \
+                guide_flyable if self.union.path is None else guide_along_path
             command = guide(inputs, self.params, self.union)
 
             def commit(chosen: GuidanceCommand) -> None:
