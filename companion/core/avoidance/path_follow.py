@@ -93,6 +93,10 @@ def _along(pose: np.ndarray, heading_rad: float, cruise: float, obstacles: np.nd
     if velocities is not None and not np.any(velocities != 0.0):
         velocities = growth = None
     position, yaw = pose[:2], float(pose[2])
+    # inside the margin already (a trunk seen late): the path out need not gain it at once
+    # (clearance() counts a circle it is inside by what the path loses beyond that)
+    now = float(np.min(np.hypot(*(obstacles - position).T) - radii))
+    need = min(union.path.hold_m, max(now, 0.0))
     headings = np.array([heading_rad + o for o in OFFSETS_RAD])
     headings = np.arctan2(np.sin(headings), np.cos(headings))
     for fraction in SPEED_FRACTIONS:
@@ -104,7 +108,7 @@ def _along(pose: np.ndarray, heading_rad: float, cruise: float, obstacles: np.nd
                                 params.safety_distance_m)
         if unseen is not None:
             margin = np.minimum(margin, unseen)
-        passing = np.flatnonzero(margin >= 0.0)
+        passing = np.flatnonzero(margin >= need)
         if passing.size:
             heading = float(headings[passing[0]])
             return GuidanceCommand(speed * turn_speed_factor(yaw, heading, union.fov_rad),
