@@ -142,7 +142,9 @@ class Navigator:
         self._side = 0
         self.commitment = Commitment()  # the velocity choice's side, kept by progress
         # what the camera has looked at (velocity choice with a camera range only)
-        self.seen = SeenSpace(union.fov_rad, union.sensor_range_m) \
+        self.seen = SeenSpace(union.fov_rad, union.sensor_range_m,
+                              keep_m=None if options.archive is None     # the bounded map's
+                              else 2.0 * (options.archive.behind_m + union.sensor_range_m)) \
             if limits is not None and union.sensor_range_m is not None else None
         # a fixed camera's look beyond the view's edges (velocity choice; off unless configured)
         self.scan = FlankScan(FlankScanParams(union.fov_rad, union.flank_scan_rad,

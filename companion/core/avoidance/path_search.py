@@ -43,7 +43,7 @@ _MOVES = ((0, 1), (1, 0), (0, -1), (-1, 0), (1, 1), (1, -1), (-1, 1), (-1, -1))
 class PathParams:
     """How the path is searched (SI units)."""
     cell_m: float = 0.5
-    margin_m: float = 0.5         # a free cell keeps d + this from every mapped centre
+    margin_m: float = 0.25        # a free cell keeps d + this from every mapped centre
     comfort_m: float = 1.5        # ... and costs more within d + this
     comfort_weight: float = 2.0
     ahead_m: float = 40.0         # the grid reaches this far toward the goal (the camera's 20 m
