@@ -9,7 +9,8 @@
    a quarter of it, fastest first: the first command whose roll-out (arc.py: turn and speed limits,
    then a stop) keeps every safety distance, and d from space never seen where the stopping
    distance exceeds d, as the velocity choice checks its own (``_unseen_margin``);
-3. none: a turn in place toward the leg (speed 0), if stopping keeps d;
+   then, at the slowest, headings up to 90 degrees either side of the leg;
+3. none: a turn in place toward the leg (speed 0) if it is beyond the view and stopping keeps d;
 4. none, or no path at all: the velocity choice decides, with the leg's direction as its goal
    (the goal kept at its distance, so arrival and the approach speed are unchanged), no committed
    side and no commitment reach: the path search has chosen the side.
@@ -36,6 +37,9 @@ from companion.core.avoidance.velocity_choice import _unseen_margin, guide_flyab
 
 SPEED_FRACTIONS = (1.0, 0.75, 0.5, 0.25)
 OFFSETS_RAD = tuple(math.radians(a) for a in (0.0, 5.0, -5.0, 10.0, -10.0))
+# at the slowest speed, then wider: a way on that the grid's resolution missed
+WIDE_OFFSETS_RAD = tuple(math.radians(a) for a in (20.0, -20.0, 30.0, -30.0, 45.0, -45.0,
+                                                   60.0, -60.0, 90.0, -90.0))
 
 
 def safety_radii(inputs: GuidanceInputs, params: GuidanceParams) -> np.ndarray:
@@ -99,7 +103,10 @@ def _along(pose: np.ndarray, heading_rad: float, cruise: float, obstacles: np.nd
     need = min(union.path.hold_m, max(now, 0.0))
     headings = np.array([heading_rad + o for o in OFFSETS_RAD])
     headings = np.arctan2(np.sin(headings), np.cos(headings))
-    for fraction in SPEED_FRACTIONS:
+    wide = np.array([heading_rad + o for o in WIDE_OFFSETS_RAD])
+    wide = np.arctan2(np.sin(wide), np.cos(wide))
+    for fraction, headings in [(f, headings) for f in SPEED_FRACTIONS] \
+            + [(SPEED_FRACTIONS[-1], wide)]:
         speed = cruise * fraction
         rolled = fly_out(position, motion, headings, np.full(len(headings), speed),
                          union.path.follow_s, union.fov_rad)
@@ -113,7 +120,9 @@ def _along(pose: np.ndarray, heading_rad: float, cruise: float, obstacles: np.nd
             heading = float(headings[passing[0]])
             return GuidanceCommand(speed * turn_speed_factor(yaw, heading, union.fov_rad),
                                    heading, "path")
-    rolled = fly_out(position, motion, headings[:1], np.zeros(1), union.path.follow_s,
+    if abs(math.remainder(heading_rad - yaw, 2.0 * math.pi)) <= 0.5 * union.fov_rad:
+        return None               # facing the leg and no way on: the velocity choice decides
+    rolled = fly_out(position, motion, np.array([heading_rad]), np.zeros(1), union.path.follow_s,
                      union.fov_rad)
     if clearance(rolled, obstacles, radii, velocities, growth, position)[0] >= 0.0:
         return GuidanceCommand(0.0, float(heading_rad), "stop")

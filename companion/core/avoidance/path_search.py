@@ -36,6 +36,8 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
 # the eight neighbours (row, column) and their lengths in cells
+ESCAPE_SLACK_M = 0.15    # a way out may cross cells this much deeper than the vehicle is (its
+                         # cell's centre is not where it is); the follower's roll-out decides
 _MOVES = ((0, 1), (1, 0), (0, -1), (-1, 0), (1, 1), (1, -1), (-1, 1), (-1, -1))
 
 
@@ -139,7 +141,7 @@ def plan_path(start_ne_m: np.ndarray, goal_ne_m: np.ndarray, obstacles: np.ndarr
         # a vehicle already inside the margin may leave: near it, cells no deeper than it is
         # (less the grid's resolution: its cell's centre is not where it is)
         around = np.hypot(grid_u, grid_v).ravel() <= params.escape_m
-        free |= around & (clear >= min(own, need) - 0.75 * cell)
+        free |= around & (clear >= min(own, need) - ESCAPE_SLACK_M)
     start_idx = int(np.argmin(np.abs(us))) * cols + int(np.argmin(np.abs(vs)))
     free[start_idx] = True
     inside = np.clip((params.comfort_m - (clear - need)) / params.comfort_m, 0.0, 1.0)
@@ -192,7 +194,7 @@ def plan_path(start_ne_m: np.ndarray, goal_ne_m: np.ndarray, obstacles: np.ndarr
     if goal_inside:
         points = np.vstack([points, goal])
     steps = np.hypot(*np.diff(points, axis=0).T)
-    carrot = first_leg(points, steps, obstacles, radii, need, min(own, need) - 0.75 * cell,
+    carrot = first_leg(points, steps, obstacles, radii, need, min(own, need) - ESCAPE_SLACK_M,
                        params)
     heading = math.atan2(carrot[1] - start[1], carrot[0] - start[0]) \
         if np.hypot(*(carrot - start)) > 1e-9 else math.atan2(axis_u[1], axis_u[0])
