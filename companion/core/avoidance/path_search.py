@@ -45,7 +45,7 @@ _MOVES = ((0, 1), (1, 0), (0, -1), (-1, 0), (1, 1), (1, -1), (-1, 1), (-1, -1))
 class PathParams:
     """How the path is searched (SI units)."""
     cell_m: float = 0.5
-    margin_m: float = 0.25        # a free cell keeps d + this from every mapped centre
+    margin_m: float = 0.3         # a free cell keeps d + this from every mapped centre
     comfort_m: float = 1.5        # ... and costs more within d + this
     comfort_weight: float = 2.0
     ahead_m: float = 40.0         # the grid reaches this far toward the goal (the camera's 20 m
@@ -57,7 +57,7 @@ class PathParams:
     escape_m: float = 1.5         # within this of a vehicle inside the margin, cells as deep
                                   # as it may be crossed (the way out)
     carrot_m: float = 8.0         # the first leg is at most this long (along the path)
-    hold_m: float = 0.2           # path_follow.py: ... and must keep d + this (the flight's
+    hold_m: float = 0.3           # path_follow.py: ... and must keep d + this (the flight's
                                   # tracking error, a trunk at the view's edge seen late)
     follow_s: float = 1.0         # path_follow.py: a command along the leg is rolled out this
                                   # long, then braked (the path, not the roll-out, looks ahead)
