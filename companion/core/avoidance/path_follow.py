@@ -10,7 +10,8 @@
    then a stop) keeps every safety distance, and d from space never seen where the stopping
    distance exceeds d, as the velocity choice checks its own (``_unseen_margin``);
    then, at the slowest, headings up to 90 degrees either side of the leg;
-3. none: a turn in place toward the leg (speed 0) if it is beyond the view and stopping keeps d;
+3. none: a stop turning toward the leg, if stopping keeps d and the leg is beyond the view or
+   the vehicle still moves (it brakes before anything else decides);
 4. none, or no path at all: the velocity choice decides, with the leg's direction as its goal
    (the goal kept at its distance, so arrival and the approach speed are unchanged), no committed
    side and no commitment reach: the path search has chosen the side.
@@ -36,6 +37,8 @@ from companion.core.avoidance.union import (MAX_SPREAD_M, UnionParams, sensed_sp
 from companion.core.avoidance.velocity_choice import _unseen_margin, guide_flyable
 
 SPEED_FRACTIONS = (1.0, 0.75, 0.5, 0.25)
+BRAKE_ABOVE_MPS = 0.5     # no way on along the leg: faster than this, brake first (the velocity
+                          # choice's own fallbacks keep d, not the follower's d + hold_m)
 OFFSETS_RAD = tuple(math.radians(a) for a in (0.0, 5.0, -5.0, 10.0, -10.0))
 # at the slowest speed, then wider: a way on that the grid's resolution missed
 WIDE_OFFSETS_RAD = tuple(math.radians(a) for a in (20.0, -20.0, 30.0, -30.0, 45.0, -45.0,
@@ -120,8 +123,9 @@ def _along(pose: np.ndarray, heading_rad: float, cruise: float, obstacles: np.nd
             heading = float(headings[passing[0]])
             return GuidanceCommand(speed * turn_speed_factor(yaw, heading, union.fov_rad),
                                    heading, "path")
-    if abs(math.remainder(heading_rad - yaw, 2.0 * math.pi)) <= 0.5 * union.fov_rad:
-        return None               # facing the leg and no way on: the velocity choice decides
+    if abs(math.remainder(heading_rad - yaw, 2.0 * math.pi)) <= 0.5 * union.fov_rad \
+            and motion.speed_mps < BRAKE_ABOVE_MPS:
+        return None               # facing the leg, nearly still, no way on: the velocity choice
     rolled = fly_out(position, motion, np.array([heading_rad]), np.zeros(1), union.path.follow_s,
                      union.fov_rad)
     if clearance(rolled, obstacles, radii, velocities, growth, position)[0] >= 0.0:
