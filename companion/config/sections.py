@@ -13,6 +13,7 @@ from companion.config.checks import require_positive, require_sigma, require_ste
 from companion.config.loader import FieldError, require
 from companion.core.avoidance.guidance import GuidanceParams
 from companion.core.avoidance.look_at import GoalLookParams
+from companion.core.avoidance.path_search import PathParams
 from companion.core.avoidance.union import UnionParams
 from companion.core.estimation.consistency import MonitorParams
 from companion.core.estimation.lifecycle import LifecycleParams
@@ -52,6 +53,9 @@ class AvoidanceConfig:
     headway_first: bool = False           # velocity choice: a slower heading within 90 deg of the
                                           # goal before a faster one away from it (forests;
                                           # core/avoidance/velocity_choice.py)
+    path_search: bool = False             # velocity choice in a static field: fly the first leg
+                                          # of a grid path over the mapped obstacles (forests;
+                                          # core/avoidance/path_follow.py, path_search.py)
     evade_movers: bool = False            # a multicopter's evasion of near movers: side-step,
                                           # back off or stop with the nose held
                                           # (core/avoidance/evade.py; docs/copter-headon-failures.md)
@@ -96,6 +100,7 @@ class AvoidanceConfig:
         return UnionParams(lookahead_s=self.lookahead_s, hysteresis=self.hysteresis, fov_rad=fov,
                            gap_margin_m=self.gap_margin_m, headway_first=self.headway_first,
                            evade_movers=self.evade_movers,
+                           path=PathParams() if self.path_search else None,
                            flank_scan_rad=None if self.flank_scan_deg is None
                            else math.radians(self.flank_scan_deg),
                            flank_scan_period_s=self.flank_scan_period_s)

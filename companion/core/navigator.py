@@ -35,6 +35,7 @@ from companion.core.avoidance.arc import Motion, VehicleLimits
 from companion.core.avoidance.look_at import GoalLookParams, LookAtParams, goal_look_yaw, threat_to_watch
 from companion.core.estimation.movers import (MoverParams, MoverTracker, apparent_velocity, mover_growth,
                                    mover_spread, start_evidence, world_measurement)
+from companion.core.avoidance.path_follow import guide_along_path
 from companion.core.avoidance.union import UnionParams, guide_union
 from companion.core.avoidance.velocity_choice import guide_flyable
 from companion.core.avoidance import vertical as vertical3d
@@ -141,7 +142,9 @@ class Navigator:
         self._side = 0
         self.commitment = Commitment()  # the velocity choice's side, kept by progress
         # what the camera has looked at (velocity choice with a camera range only)
-        self.seen = SeenSpace(union.fov_rad, union.sensor_range_m) \
+        self.seen = SeenSpace(union.fov_rad, union.sensor_range_m,
+                              keep_m=None if options.archive is None     # the bounded map's
+                              else 2.0 * (options.archive.behind_m + union.sensor_range_m)) \
             if limits is not None and union.sensor_range_m is not None else None
         # a fixed camera's look beyond the view's edges (velocity choice; off unless configured)
         self.scan = FlankScan(FlankScanParams(union.fov_rad, union.flank_scan_rad,
@@ -1120,7 +1123,8 @@ class Navigator:
                 self.commitment.side if motion is not None else self._side, velocities, motion,
                 growth, reach or None, self.seen, spread,
                 self._look_for if self.scan is not None else None)
-            guide = guide_union if motion is None else guide_flyable
+            guide = guide_union if motion is None else \
+                guide_flyable if self.union.path is None else guide_along_path
             command = guide(inputs, self.params, self.union)
 
             def commit(chosen: GuidanceCommand) -> None:

@@ -181,3 +181,50 @@ def test_the_pose_stays_consistent_on_a_long_forest_route(position_fusion):
         assert marks["final"] < 0.6 * (marks["final"] + marks["in_archive"])   # the map was bounded
     nees = aggregate(outcomes, base.avoidance.safety_distance_m)["nees"]
     assert nees["in_band_fraction"] >= 0.9, nees
+
+
+def _filled(seed: int, count: int, spread_m: float) -> tuple[MapArchive, MapArchive, np.random.Generator]:
+    """Two archives holding the same random entries (positions over spread_m, covariances of
+    varied size and shape, some large), and the generator for the queries."""
+    rng = np.random.default_rng(seed)
+    a, b = MapArchive(ArchiveParams(behind_m=10.0)), MapArchive(ArchiveParams(behind_m=10.0))
+    for key in range(count):
+        position = rng.uniform(0.0, spread_m, 2)
+        root = rng.normal(0.0, rng.choice([0.05, 0.3, 2.0]), (2, 2))
+        cov = root @ root.T + 1e-4 * np.eye(2)
+        a.add(key, position, cov, 0.0, 1.0)
+        b.add(key, position, cov, 0.0, 1.0)
+    return a, b, rng
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_grid_matches_equal_brute_force(seed):
+    # the spatial hash's answer is the brute force's over the whole archive, query after query
+    # (each match drops an entry from both, so later queries see the same archive)
+    grid, brute, rng = _filled(seed, 400, 300.0)
+    matched = 0
+    for q in range(300):
+        if q % 3 == 0:       # near an archived entry: a match is likely
+            entry = brute.entries()[int(rng.integers(len(brute)))]
+            position = np.array(entry.position_ne_m) + rng.normal(0.0, 0.5, 2)
+        else:
+            position = rng.uniform(-20.0, 320.0, 2)
+        root = rng.normal(0.0, rng.choice([0.05, 0.5, 3.0]), (2, 2))
+        cov = root @ root.T + 1e-4 * np.eye(2)
+        key = int(rng.integers(1000, 2000)) if q % 7 else int(rng.integers(0, 400))
+        expected = brute.reacquire_brute(key, position, cov)
+        assert grid.reacquire(key, position, cov) == expected
+        matched += expected is not None
+        assert len(grid) == len(brute)
+    assert matched > 50                       # the queries did exercise matches
+    assert grid.counts == brute.counts
+
+
+def test_grid_looks_at_few_entries_on_a_long_route():
+    # a 5 km line of archived trees: a query far along it sees only the cells near it
+    archive = MapArchive(ArchiveParams(behind_m=10.0))
+    for key in range(5000):
+        archive.add(key, np.array([float(key), 3.0]), 0.04 * np.eye(2), 0.0, 1.0)
+    near = archive._candidates(np.array([2500.0, 0.0]), 0.04 * np.eye(2))
+    assert 0 < len(near) < 50
+    assert all(abs(archive._entries[k].position_ne_m[0] - 2500.0) < 30.0 for k in near)

@@ -25,10 +25,16 @@ GROW_CELLS = 64                  # the grid grows by at least this many cells wh
 class SeenSpace:
     """Cells the camera has had in view. ``margin`` answers in metres."""
 
-    def __init__(self, fov_rad: float, range_m: float, cell_m: float = CELL_M) -> None:
+    def __init__(self, fov_rad: float, range_m: float, cell_m: float = CELL_M,
+                 keep_m: float | None = None) -> None:
+        """``keep_m`` (None: keep everything): cells farther than this from the camera (along
+        either axis) are forgotten, as never seen, whenever the grid has grown to twice that
+        box: the grid, and the distance transform every frame, stay bounded on a long route (a
+        forgotten cell only lowers the margin of points near it, never raises one)."""
         self.fov_rad = fov_rad
         self.range_m = range_m
         self.cell_m = cell_m
+        self.keep_m = keep_m
         self._origin = np.zeros(2)                     # world position of cell (0, 0)'s corner
         self._seen = np.zeros((0, 0), dtype=bool)
         self._field: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
@@ -51,6 +57,21 @@ class SeenSpace:
         view = (dist <= r) & ((off <= 0.5 * self.fov_rad) | (dist <= self.cell_m))
         self._seen[lo[0]:hi[0], lo[1]:hi[1]] |= view
         self._field = None
+        if self.keep_m is not None:
+            self._forget_far(np.array([x, y]))
+
+    def _forget_far(self, position: np.ndarray) -> None:
+        """Crop the grid to the cells within keep_m of ``position`` once it spans more than
+        twice that (amortised: a crop per keep_m flown at most)."""
+        limit = 2.0 * (2.0 * self.keep_m / self.cell_m) + 2 * GROW_CELLS
+        if max(self._seen.shape) <= limit:
+            return
+        lo = np.floor((position - self.keep_m - self._origin) / self.cell_m).astype(int)
+        hi = np.ceil((position + self.keep_m - self._origin) / self.cell_m).astype(int)
+        lo = np.maximum(lo, 0)
+        hi = np.minimum(hi, np.array(self._seen.shape))
+        self._seen = self._seen[lo[0]:hi[0], lo[1]:hi[1]].copy()
+        self._origin = self._origin + lo * self.cell_m
 
     def _cover(self, low: np.ndarray, high: np.ndarray) -> None:
         """Grow the grid so that it holds the box low..high (world metres)."""

@@ -24,12 +24,16 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from companion.core.avoidance.guidance import (GuidanceCommand, GuidanceInputs, GuidanceParams,
                                                approach_speed, inflated_radius, toward_goal)
 from companion.core.geometry import wrap_angles
+
+if TYPE_CHECKING:
+    from companion.core.avoidance.path_search import PathParams
 
 CANDIDATES = 720                      # heading grid, 0.5 degree (with movers)
 EDGE_MARGIN_RAD = math.radians(0.25)  # candidates sit this far outside a cone's edge
@@ -51,6 +55,8 @@ class UnionParams:
     flank_scan_period_s: float = 4.0      # edges, each side within the period (flank_scan.py)
     headway_first: bool = False       # velocity choice: headway at a lower speed before a
                                       # faster heading away from the goal, static fields too
+    path: "PathParams | None" = None  # velocity choice, static fields: fly the first leg of a
+                                      # path searched over the map (path_follow.py; None: off)
     evade_movers: bool = False        # velocity choice (a multicopter's): side-step, back-off and
                                       # stop candidates with the nose held when a mover is near,
                                       # coasting tracks kept while unseeable near (evade.py)

@@ -67,12 +67,27 @@ def stale(pose: np.ndarray, points: np.ndarray, last_seen_s: np.ndarray, t_s: fl
     return (along < 0.0) & far & (t_s - last_seen_s > params.unseen_s)
 
 
-class MapArchive:
-    """The landmarks marginalised out of the filter, by key; read-only to everyone else."""
+GRID_CELL_M = 10.0        # the archive's spatial hash: square cells of this side
 
-    def __init__(self, params: ArchiveParams) -> None:
+
+class MapArchive:
+    """The landmarks marginalised out of the filter, by key; read-only to everyone else.
+
+    Matching a new landmark against the archive (``reacquire``) looks only at the entries in the
+    cells of a spatial hash (GRID_CELL_M squares) that a match can lie in: a gap g between the two
+    means has NIS >= |g|^2 / lambda_max(both covariances summed) >= |g|^2 / (lambda_max(new) +
+    the largest lambda_max ever archived), so every entry within the gate lies within
+    sqrt(match_nis x that) of the new landmark. The answer is the brute force's over the whole
+    archive (the same NIS, the first of equal ones in archiving order), at a cost that does not
+    grow with the route (``reacquire_brute`` is that brute force, for the tests)."""
+
+    def __init__(self, params: ArchiveParams, cell_m: float = GRID_CELL_M) -> None:
         self.params = params
+        self.cell_m = float(cell_m)
         self._entries: dict[int, ArchivedLandmark] = {}
+        self._cells: dict[tuple[int, int], dict[int, int]] = {}  # cell -> {key: archiving order}
+        self._order = 0
+        self._max_var_m2 = 0.0          # the largest lambda_max of an archived covariance, ever
         self.counts = {"archived": 0, "reacquired": 0}
 
     def __len__(self) -> int:
@@ -92,30 +107,85 @@ class MapArchive:
         """Archived marginal covariances, (k, 2, 2)."""
         return np.array([e.cov_ne_m2 for e in self._entries.values()], dtype=float).reshape(-1, 2, 2)
 
+    def _cell(self, north_m: float, east_m: float) -> tuple[int, int]:
+        return (math.floor(north_m / self.cell_m), math.floor(east_m / self.cell_m))
+
     def add(self, key: int, position: np.ndarray, cov: np.ndarray, last_seen_s: float,
             t_s: float) -> None:
-        self._entries[key] = ArchivedLandmark(
+        if key in self._entries:
+            self._remove(key)
+        entry = ArchivedLandmark(
             key, (float(position[0]), float(position[1])),
             ((float(cov[0, 0]), float(cov[0, 1])), (float(cov[1, 0]), float(cov[1, 1]))),
             float(last_seen_s), float(t_s))
+        self._entries[key] = entry
+        self._cells.setdefault(self._cell(*entry.position_ne_m), {})[key] = self._order
+        self._order += 1
+        self._max_var_m2 = max(self._max_var_m2, _largest_var(np.array(entry.cov_ne_m2)))
         self.counts["archived"] += 1
+
+    def _remove(self, key: int) -> None:
+        entry = self._entries.pop(key)
+        cell = self._cell(*entry.position_ne_m)
+        members = self._cells[cell]
+        del members[key]
+        if not members:
+            del self._cells[cell]
+
+    def _candidates(self, position: np.ndarray, cov: np.ndarray) -> list[int]:
+        """The keys of every entry a match can be, in archiving order (a superset: see the class
+        docstring); all of them when the search would visit more cells than there are."""
+        reach = math.sqrt(self.params.match_nis * (_largest_var(cov) + self._max_var_m2))
+        lo = self._cell(position[0] - reach, position[1] - reach)
+        hi = self._cell(position[0] + reach, position[1] + reach)
+        if not (math.isfinite(reach)) or (hi[0] - lo[0] + 1) * (hi[1] - lo[1] + 1) > len(self._cells):
+            return list(self._entries)
+        found: list[tuple[int, int]] = []
+        for i in range(lo[0], hi[0] + 1):
+            for j in range(lo[1], hi[1] + 1):
+                members = self._cells.get((i, j))
+                if members:
+                    found.extend((order, key) for key, order in members.items())
+        found.sort()
+        return [key for _, key in found]
 
     def reacquire(self, key: int, position: np.ndarray, cov: np.ndarray) -> int | None:
         """A new landmark ``key`` at ``position`` (2,) with covariance ``cov`` (2, 2): drop the
-        archived entry it is (the same key, or else the nearest within match_nis); its key or
-        None."""
+        archived entry it is (the same key, or else the nearest by NIS within match_nis); its key
+        or None."""
         match = key if key in self._entries else None
         if match is None and self._entries:
-            keys = list(self._entries)
-            gaps = self.points() - position
-            total = self.covs() + cov
-            det = total[:, 0, 0] * total[:, 1, 1] - total[:, 0, 1] * total[:, 1, 0]
-            nis = (total[:, 1, 1] * gaps[:, 0] ** 2 - 2.0 * total[:, 0, 1] * gaps[:, 0] * gaps[:, 1]
-                   + total[:, 0, 0] * gaps[:, 1] ** 2) / np.maximum(det, 1e-300)
-            best = int(np.argmin(nis))
-            if nis[best] <= self.params.match_nis:
-                match = keys[best]
+            match = self._nearest(self._candidates(position, cov), position, cov)
+        return self._drop(match)
+
+    def reacquire_brute(self, key: int, position: np.ndarray, cov: np.ndarray) -> int | None:
+        """reacquire over the whole archive (no hash): what the hash must answer."""
+        match = key if key in self._entries else None
+        if match is None and self._entries:
+            match = self._nearest(list(self._entries), position, cov)
+        return self._drop(match)
+
+    def _drop(self, match: int | None) -> int | None:
         if match is not None:
-            del self._entries[match]
+            self._remove(match)
             self.counts["reacquired"] += 1
         return match
+
+    def _nearest(self, keys: list[int], position: np.ndarray, cov: np.ndarray) -> int | None:
+        """Of ``keys``, the entry of least NIS if within match_nis (the first of equal ones)."""
+        if not keys:
+            return None
+        entries = [self._entries[k] for k in keys]
+        gaps = np.array([e.position_ne_m for e in entries], dtype=float) - position
+        total = np.array([e.cov_ne_m2 for e in entries], dtype=float) + cov
+        det = total[:, 0, 0] * total[:, 1, 1] - total[:, 0, 1] * total[:, 1, 0]
+        nis = (total[:, 1, 1] * gaps[:, 0] ** 2 - 2.0 * total[:, 0, 1] * gaps[:, 0] * gaps[:, 1]
+               + total[:, 0, 0] * gaps[:, 1] ** 2) / np.maximum(det, 1e-300)
+        best = int(np.argmin(nis))
+        return keys[best] if nis[best] <= self.params.match_nis else None
+
+
+def _largest_var(cov: np.ndarray) -> float:
+    """lambda_max of a 2x2 covariance (symmetrised), m^2."""
+    a, b, c = float(cov[0, 0]), 0.5 * float(cov[0, 1] + cov[1, 0]), float(cov[1, 1])
+    return 0.5 * (a + c) + math.sqrt(0.25 * (a - c) ** 2 + b * b)

@@ -1,0 +1,226 @@
+"""A path through a field of mapped obstacles (forests): a grid search whose first leg is flown.
+
+The velocity choice (velocity_choice.py) picks a heading outside every cone from where the
+vehicle is. In a forest no straight heading is free over its look-ahead, and the choice of the
+moment stalls: it flies away from the goal at cruise, comes back, and does so again (a two-point
+cycle, docs/forest.md). Here the decision looks further: a shortest path over the mapped
+obstacles to the goal, and the vehicle flies its first leg.
+
+- The grid: square cells of ``cell_m`` in the goal's frame (u along start -> goal, v across), from
+  ``back_m`` behind the vehicle to ``ahead_m`` toward the goal (the goal itself if nearer), plus
+  ``side_m`` either side. Each cell's clearance is its distance to the nearest obstacle's centre
+  minus that obstacle's radius (the safety distance as the velocity choice uses it).
+- A cell is free if its clearance is at least ``margin_m``; within ``escape_m`` of a vehicle
+  that is inside the margin, cells about as deep as it (a way out). Unmapped space is free: the
+  velocity choice's roll-out keeps d from space the camera has not seen.
+- Moves to the eight neighbours cost their length times 1 + ``comfort_weight`` x how far the
+  cells lie inside ``comfort_m`` of clearance: the path keeps to the middle of a gap.
+- Moves within ``turn_reach_m`` of the vehicle cost more the farther they turn from the last
+  heading: of two near-equal ways round a tree, the one taken stays taken.
+- The goal beyond the grid: every cell on the grid's edge leads to it at the straight-line
+  distance (an optimistic guess for the unmapped rest). Dijkstra (scipy.sparse.csgraph) from
+  the vehicle's cell.
+- The first leg: the farthest point of the path, at most ``carrot_m`` along it, that the vehicle
+  sees in a straight line with every sample at least the free clearance; its direction is the
+  heading to fly.
+
+Pure numpy/scipy; positions north/east metres, headings LOCAL_NED yaw (rad).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import dijkstra
+
+# the eight neighbours (row, column) and their lengths in cells
+ESCAPE_SLACK_M = 0.15    # a way out may cross cells this much deeper than the vehicle is (its
+                         # cell's centre is not where it is); the follower's roll-out decides
+_MOVES = ((0, 1), (1, 0), (0, -1), (-1, 0), (1, 1), (1, -1), (-1, 1), (-1, -1))
+
+
+@dataclass(frozen=True)
+class PathParams:
+    """How the path is searched (SI units)."""
+    cell_m: float = 0.5
+    margin_m: float = 0.3         # a free cell keeps d + this from every mapped centre
+    comfort_m: float = 1.5        # ... and costs more within d + this
+    comfort_weight: float = 2.0
+    ahead_m: float = 40.0         # the grid reaches this far toward the goal (the camera's 20 m
+    back_m: float = 8.0           # and as much of unmapped space), this far behind the vehicle
+    side_m: float = 20.0          # and this far either side of the line to the goal
+    turn_weight: float = 1.0      # a move within turn_reach_m of the vehicle costs its length
+    turn_reach_m: float = 3.0     # times 1 + this x (1 - cos) of its angle to the last heading:
+                                  # the path keeps to the side it chose while the map shifts
+    escape_m: float = 1.5         # within this of a vehicle inside the margin, cells as deep
+                                  # as it may be crossed (the way out)
+    carrot_m: float = 8.0         # the first leg is at most this long (along the path)
+    hold_m: float = 0.3           # path_follow.py: ... and must keep d + this (the flight's
+                                  # tracking error, a trunk at the view's edge seen late)
+    follow_s: float = 1.0         # path_follow.py: a command along the leg is rolled out this
+                                  # long, then braked (the path, not the roll-out, looks ahead)
+
+
+@dataclass(frozen=True)
+class PlannedPath:
+    """The search's answer. ``points_ne_m`` (k, 2) from the vehicle's cell on (empty: no path);
+    ``heading_rad``: toward ``carrot_ne_m``, the first leg's end; ``length_m``: the path's length
+    within the grid, ``cost_m`` the search's cost to the goal (edge to goal included)."""
+    found: bool
+    points_ne_m: np.ndarray
+    carrot_ne_m: np.ndarray | None
+    heading_rad: float | None
+    length_m: float
+    cost_m: float
+
+
+def clearance_at(points_ne_m: np.ndarray, obstacles: np.ndarray, radii: np.ndarray) -> np.ndarray:
+    """(m,) distance from each point to the nearest obstacle's circle (centre distance - radius);
+    +inf without obstacles."""
+    if len(obstacles) == 0:
+        return np.full(len(points_ne_m), np.inf)
+    north = points_ne_m[:, 0][:, None] - obstacles[None, :, 0]
+    east = points_ne_m[:, 1][:, None] - obstacles[None, :, 1]
+    return (np.hypot(north, east) - radii[None, :]).min(axis=1)
+
+
+def _clearance_grid(us: np.ndarray, vs: np.ndarray, obstacle_u: np.ndarray,
+                    obstacle_v: np.ndarray, radii: np.ndarray, band_m: float) -> np.ndarray:
+    """(rows, cols) clearance of each cell (distance to the nearest circle), computed only within
+    ``band_m`` of each circle: farther cells read +inf (they are free and cost nothing more)."""
+    clear = np.full((len(us), len(vs)), np.inf)
+    cell = us[1] - us[0] if len(us) > 1 else 1.0
+    for u, v, r in zip(obstacle_u, obstacle_v, radii):
+        reach = r + band_m
+        r0 = max(int(math.floor((u - reach - us[0]) / cell)), 0)
+        r1 = min(int(math.ceil((u + reach - us[0]) / cell)) + 1, len(us))
+        c0 = max(int(math.floor((v - reach - vs[0]) / cell)), 0)
+        c1 = min(int(math.ceil((v + reach - vs[0]) / cell)) + 1, len(vs))
+        if r0 >= r1 or c0 >= c1:
+            continue
+        local = np.hypot((us[r0:r1] - u)[:, None], (vs[c0:c1] - v)[None, :]) - r
+        np.minimum(clear[r0:r1, c0:c1], local, out=clear[r0:r1, c0:c1])
+    return clear
+
+
+def plan_path(start_ne_m: np.ndarray, goal_ne_m: np.ndarray, obstacles: np.ndarray,
+              radii: np.ndarray, params: PathParams = PathParams(),
+              previous_heading_rad: float | None = None) -> PlannedPath:
+    """The cheapest grid path from ``start_ne_m`` toward ``goal_ne_m`` around the ``obstacles``
+    (n, 2) with safety radii ``radii`` (n,); see the module docstring. ``previous_heading_rad``:
+    the last decision's heading, which moves near the vehicle are charged for turning from."""
+    start = np.asarray(start_ne_m, dtype=float)
+    goal = np.asarray(goal_ne_m, dtype=float)
+    to_goal = goal - start
+    distance = float(np.hypot(*to_goal))
+    axis_u = to_goal / distance if distance > 1e-9 else np.array([1.0, 0.0])
+    axis_v = np.array([-axis_u[1], axis_u[0]])
+    cell = params.cell_m
+    reach = min(distance, params.ahead_m)
+    goal_inside = distance <= params.ahead_m
+    us = np.arange(-params.back_m, reach + params.back_m * goal_inside + 0.5 * cell, cell)
+    vs = np.arange(-params.side_m, params.side_m + 0.5 * cell, cell)
+    rows, cols = len(us), len(vs)
+    grid_u, grid_v = np.meshgrid(us, vs, indexing="ij")
+    centres = start + grid_u[..., None] * axis_u + grid_v[..., None] * axis_v     # (rows, cols, 2)
+    flat = centres.reshape(-1, 2)
+    # only obstacles whose circle reaches the grid (with the comfort band) count
+    span = np.hypot(params.back_m + reach + params.back_m, params.side_m)
+    if len(obstacles):
+        near = np.hypot(*(obstacles - (start + 0.5 * reach * axis_u)).T) - radii \
+            < span + params.comfort_m
+        obstacles, radii = obstacles[near], radii[near]
+    clear = _clearance_grid(us, vs, (obstacles - start) @ axis_u, (obstacles - start) @ axis_v,
+                            radii, params.margin_m + params.comfort_m + cell).ravel()
+    own = float(clearance_at(start[None, :], obstacles, radii)[0])
+    need = params.margin_m
+    free = clear >= need
+    if own < need + cell:
+        # a vehicle already inside the margin may leave: near it, cells no deeper than it is
+        # (less the grid's resolution: its cell's centre is not where it is)
+        around = np.hypot(grid_u, grid_v).ravel() <= params.escape_m
+        free |= around & (clear >= min(own, need) - ESCAPE_SLACK_M)
+    start_idx = int(np.argmin(np.abs(us))) * cols + int(np.argmin(np.abs(vs)))
+    free[start_idx] = True
+    inside = np.clip((params.comfort_m - (clear - need)) / params.comfort_m, 0.0, 1.0)
+    penalty = params.comfort_weight * inside
+    # the grid's edges: 8-neighbour moves between free cells
+    index = np.arange(rows * cols).reshape(rows, cols)
+    src, dst, wts = [], [], []
+    for dr, dc in _MOVES:
+        a = index[max(0, -dr):rows - max(0, dr), max(0, -dc):cols - max(0, dc)].ravel()
+        b = index[max(0, dr):rows - max(0, -dr) or None, max(0, dc):cols - max(0, -dc) or None].ravel()
+        ok = free[a] & free[b]
+        a, b = a[ok], b[ok]
+        src.append(a)
+        dst.append(b)
+        weight = cell * math.hypot(dr, dc) * (1.0 + 0.5 * (penalty[a] + penalty[b]))
+        if previous_heading_rad is not None and params.turn_weight > 0.0:
+            move = (dr * axis_u + dc * axis_v) / math.hypot(dr, dc)
+            turn = 1.0 - (move[0] * math.cos(previous_heading_rad)
+                          + move[1] * math.sin(previous_heading_rad))
+            close = np.hypot(grid_u.ravel()[a], grid_v.ravel()[a]) <= params.turn_reach_m
+            weight = weight * (1.0 + params.turn_weight * turn * close)
+        wts.append(weight)
+    n = rows * cols
+    goal_node = n
+    if goal_inside:
+        goal_idx = int(np.argmin(np.hypot(*(flat - goal).T)))
+        free[goal_idx] = True
+        targets, to_goal_m = np.array([goal_idx]), np.array([1e-6])
+    else:
+        edge = np.zeros((rows, cols), dtype=bool)
+        edge[0, :] = edge[-1, :] = edge[:, 0] = edge[:, -1] = True
+        targets = np.flatnonzero(edge.ravel() & free)
+        to_goal_m = np.hypot(*(flat[targets] - goal).T) + 1e-6
+    src.append(targets)
+    dst.append(np.full(len(targets), goal_node))
+    wts.append(to_goal_m)
+    graph = csr_matrix((np.concatenate(wts), (np.concatenate(src), np.concatenate(dst))),
+                       shape=(n + 1, n + 1))
+    dist, pred = dijkstra(graph, directed=True, indices=start_idx, return_predecessors=True)
+    if not np.isfinite(dist[goal_node]):
+        return PlannedPath(False, np.empty((0, 2)), None, None, 0.0, math.inf)
+    chain = []
+    node = int(pred[goal_node])
+    while node >= 0 and node != start_idx:
+        chain.append(node)
+        node = int(pred[node])
+    chain.append(start_idx)
+    points = flat[np.array(chain[::-1])]
+    points[0] = start
+    if goal_inside:
+        points = np.vstack([points, goal])
+    steps = np.hypot(*np.diff(points, axis=0).T)
+    carrot = first_leg(points, steps, obstacles, radii, need, min(own, need) - ESCAPE_SLACK_M,
+                       params)
+    heading = math.atan2(carrot[1] - start[1], carrot[0] - start[0]) \
+        if np.hypot(*(carrot - start)) > 1e-9 else math.atan2(axis_u[1], axis_u[0])
+    return PlannedPath(True, points, carrot, heading, float(steps.sum()), float(dist[goal_node]))
+
+
+def first_leg(points: np.ndarray, steps: np.ndarray, obstacles: np.ndarray, radii: np.ndarray,
+              need_m: float, escape_need_m: float, params: PathParams) -> np.ndarray:
+    """The farthest path point within ``carrot_m`` along the path that the start sees in a
+    straight line keeping ``need_m`` of clearance (``escape_need_m`` within ``escape_m`` of the
+    start: the way out of a margin it is inside), sampled every half cell; the path's second
+    point if none farther."""
+    along = np.concatenate([[0.0], np.cumsum(steps)])
+    start = points[0]
+    best = points[min(1, len(points) - 1)]
+    for k in range(1, len(points)):
+        if along[k] > params.carrot_m:
+            break
+        length = float(np.hypot(*(points[k] - start)))
+        samples = max(2, int(math.ceil(length / (0.5 * params.cell_m))) + 1)
+        line = start + np.linspace(0.0, 1.0, samples)[1:, None] * (points[k] - start)
+        near = np.hypot(*(line - start).T) <= params.escape_m
+        if clearance_at(line, obstacles, radii).min(initial=np.inf,
+                                                    where=~near) < need_m:
+            continue
+        if near.any() and clearance_at(line[near], obstacles, radii).min() < escape_need_m:
+            continue
+        best = points[k]
+    return best

@@ -1,0 +1,100 @@
+"""The forests' path search (core/avoidance/path_search.py) and its follower (path_follow.py)."""
+import math
+
+import numpy as np
+import pytest
+
+from companion.core.avoidance.arc import VehicleLimits
+from companion.core.avoidance.guidance import GuidanceInputs, GuidanceParams
+from companion.core.avoidance.path_follow import guide_along_path
+from companion.core.avoidance.path_search import PathParams, clearance_at, plan_path
+from companion.core.avoidance.union import UnionParams
+
+D = 1.5
+
+
+def _wall(gap_east_m: float, half_gap_m: float, north_m: float = 10.0) -> np.ndarray:
+    """Posts every metre along east at ``north_m`` except a gap centred at ``gap_east_m``."""
+    return np.array([[north_m, e] for e in np.arange(-20.0, 20.5, 1.0)
+                     if abs(e - gap_east_m) > half_gap_m])
+
+
+def test_straight_when_nothing_is_mapped_near_the_line():
+    obstacles = np.array([[10.0, 8.0], [20.0, -8.0]])
+    plan = plan_path(np.zeros(2), np.array([100.0, 0.0]), obstacles, np.full(2, D))
+    assert plan.found
+    assert abs(plan.heading_rad) < math.radians(1.0)
+
+
+@pytest.mark.parametrize("gap_east_m", [-7.0, 6.0])
+def test_through_the_only_gap_of_a_wall_keeping_the_margin(gap_east_m):
+    wall = _wall(gap_east_m, 3.0)
+    radii = np.full(len(wall), D)
+    params = PathParams()
+    plan = plan_path(np.zeros(2), np.array([30.0, 0.0]), wall, radii, params)
+    assert plan.found
+    # the path crosses the wall's line inside the gap, and keeps the margin all along
+    crossing = plan.points_ne_m[np.argmin(np.abs(plan.points_ne_m[:, 0] - 10.0))]
+    assert abs(crossing[1] - gap_east_m) < 1.0
+    assert clearance_at(plan.points_ne_m[1:], wall, radii).min() >= params.margin_m - 1e-9
+    # the first leg heads toward the gap's side
+    assert np.sign(plan.heading_rad) == np.sign(gap_east_m)
+
+
+def test_no_path_through_a_closed_wall():
+    wall = np.array([[10.0, e] for e in np.arange(-25.0, 25.5, 1.0)])
+    plan = plan_path(np.zeros(2), np.array([30.0, 0.0]), wall, np.full(len(wall), D),
+                     PathParams(side_m=20.0))
+    assert not plan.found
+
+
+def test_a_gap_narrower_than_twice_d_plus_the_margin_is_not_taken():
+    # posts 2 x (d + 0.4) apart: free space between their circles is 0.8 m, but the path must
+    # keep d + 0.5 (margin_m): it goes round the row's end instead
+    row = np.array([[10.0, -3.8], [10.0, 0.0]])
+    plan = plan_path(np.zeros(2), np.array([30.0, -1.9]), row, np.full(2, D))
+    assert plan.found
+    crossing = plan.points_ne_m[np.argmin(np.abs(plan.points_ne_m[:, 0] - 10.0))]
+    assert not -3.8 < crossing[1] < 0.0
+
+
+def test_the_last_heading_keeps_the_side_of_a_symmetric_tree():
+    tree = np.array([[8.0, 0.0]])
+    left = plan_path(np.zeros(2), np.array([40.0, 0.0]), tree, np.full(1, D),
+                     previous_heading_rad=math.radians(-30.0))
+    right = plan_path(np.zeros(2), np.array([40.0, 0.0]), tree, np.full(1, D),
+                      previous_heading_rad=math.radians(30.0))
+    assert left.heading_rad < 0.0 < right.heading_rad
+
+
+def test_a_vehicle_inside_the_margin_finds_its_way_out():
+    tree = np.array([[2.0, 0.0]])
+    start = np.array([0.0, 0.3])           # 2.02 m from the centre: 0.52 beyond d, 0.02 short
+    plan = plan_path(start, np.array([30.0, 0.0]), tree, np.full(1, D),
+                     PathParams(margin_m=0.6))
+    assert plan.found and plan.heading_rad > 0.0       # out on its own side
+
+
+def _inputs(obstacles, speed=5.0):
+    limits = VehicleLimits(math.radians(60.0), 2.5, lateral_accel_limited=True)
+    return GuidanceInputs(np.array([0.0, 0.0, 0.0]), np.array([60.0, 0.0]), obstacles,
+                          motion=limits.motion(speed, 0.0, 0.0))
+
+
+def test_the_follower_flies_the_leg_and_keeps_d():
+    wall = _wall(6.0, 3.0)
+    params = GuidanceParams(5.0, D, 4.0, 1.25, 2.0)
+    union = UnionParams(lookahead_s=3.0, fov_rad=math.radians(87.0), path=PathParams())
+    command = guide_along_path(_inputs(wall), params, union)
+    assert command.mode == "path"
+    assert 0.0 < command.heading_rad < math.radians(45.0)
+    assert 0.0 < command.speed_mps <= 5.0
+
+
+def test_off_without_the_key():
+    # union.path None: the velocity choice as it was
+    wall = _wall(6.0, 3.0)
+    params = GuidanceParams(5.0, D, 4.0, 1.25, 2.0)
+    command = guide_along_path(_inputs(wall), params,
+                               UnionParams(lookahead_s=3.0, fov_rad=math.radians(87.0)))
+    assert command.mode != "path"
