@@ -36,7 +36,12 @@ Figures, for the 15 Hz flight without and with the quota:
 Then the largest map: one long corridor (``--map-rows`` rows, 6 posts each) at a 10 Hz camera
 under the quota; the map grows as the vehicle flies, and the latency is binned by the number of
 posts seen so far (each is a landmark: the camera reports ids). The largest map it sustains is
-the largest bin whose p99 is within the camera period (100 ms) with no overflow before it.
+the top of the last bin, from the smallest, in which it keeps up (largest_sustained).
+
+What bounds the latency without any quota (measured, README): the pipeline decides on a frame
+when the first message not of it arrives, and the estimator holds it until the odometry sample
+at its time: on the stub, whose camera reports end a step's burst, that is the next step (100 ms
+at 10 Hz); at 15 Hz on 10 Hz odometry, up to 67 ms more.
 """
 from __future__ import annotations
 
@@ -402,6 +407,21 @@ def fly(scenario: dict, workdir: Path, name: str, throttle, seed: int = 0) -> Qu
     return flight
 
 
+def largest_sustained(by_map: list[dict], period_ms: float) -> int | None:
+    """The top of the largest map bin, counted from the smallest, up to which the companion
+    keeps up with the camera: each frame handled within one camera period of being complete
+    (p99), and no backlog (capture to setpoint p99 within two periods: the frame waits for the
+    next inbound message, on the stub one step later, and for the odometry sample at its time).
+    """
+    sustained = None
+    for row in by_map:
+        if row.get("reaction", {}).get("p99_ms", 1e9) > period_ms \
+                or row.get("p99_ms", 1e9) > 2.0 * period_ms:
+            break
+        sustained = row["map_to"]
+    return sustained
+
+
 def make_throttle(kind: str, quota: float, name: str):
     if kind == "cgroup":
         why = cgroup_usable()
@@ -459,13 +479,11 @@ def main(argv: list[str] | None = None) -> int:
             if name.startswith("quota-map"):
                 for row in flights[-1].by_map:
                     print(f"    map {row['map_from']:4d}-{row['map_to']:4d} posts seen: {row}")
-                sustained = None
-                for row in flights[-1].by_map:
-                    if row.get("p99_ms", 1e9) > 100.0:
-                        break
-                    sustained = row["map_to"]
+                sustained = largest_sustained(flights[-1].by_map, 1000.0 / 10.0)
                 figures["largest_map_sustained_10hz"] = sustained
-                print(f"  largest map sustained at 10 Hz (p99 <= 100 ms): {sustained} posts seen")
+                print(f"  largest map sustained at 10 Hz (frame complete to setpoint p99 <= "
+                      f"100 ms, capture to setpoint p99 <= 200 ms: no backlog): {sustained} "
+                      f"posts seen")
         figures["flights"] = [vars(f) for f in flights]
     figures["load_average_end"] = [round(x, 2) for x in os.getloadavg()]
     print(f"load average at the end: {figures['load_average_end']}")
