@@ -483,7 +483,9 @@ def main(argv: list[str] | None = None) -> int:
                 figures["largest_map_sustained_10hz"] = sustained
                 print(f"  largest map sustained at 10 Hz (frame complete to setpoint p99 <= "
                       f"100 ms, capture to setpoint p99 <= 200 ms: no backlog): {sustained} "
-                      f"posts seen")
+                      f"posts seen" + (" (at least: the corridor ran out first; more "
+                                       "--map-rows)" if flights[-1].by_map and sustained ==
+                                      flights[-1].by_map[-1]["map_to"] else ""))
         figures["flights"] = [vars(f) for f in flights]
     figures["load_average_end"] = [round(x, 2) for x in os.getloadavg()]
     print(f"load average at the end: {figures['load_average_end']}")
