@@ -23,6 +23,31 @@ MIN_COURSE_SPEED_MPS = 0.5        # below this the velocity's direction is noise
 QUALITY = {"ok": 100, "degraded": 50, "lost": -1}     # ODOMETRY.quality: -1 = failed
 SEVERITY = {"ok": codec.SEVERITY_INFO, "degraded": codec.SEVERITY_WARNING,
             "lost": codec.SEVERITY_ERROR}
+REFUSED_LOG_PERIOD_S = 10.0       # a refused autopilot position: said at once, then once per this
+
+
+class ThrottledWarning:
+    """A repeated warning: said the first time, then at most once per ``period_s`` of vehicle
+    time with the count since it was last said (a fix refused every second for minutes would
+    otherwise be a log line a second). ``total`` counts every occurrence."""
+
+    def __init__(self, period_s: float = REFUSED_LOG_PERIOD_S) -> None:
+        self.period_s = period_s
+        self.total = 0
+        self._unsaid = 0
+        self._said_t_s: float | None = None
+
+    def note(self, t_s: float) -> int | None:
+        """One occurrence at vehicle time ``t_s``; returns how many to say now (this one and
+        those held back since the last time said), or None: stay quiet. Time going backwards (a
+        reboot) says it at once."""
+        self.total += 1
+        self._unsaid += 1
+        said = self._said_t_s
+        if said is not None and said <= t_s < said + self.period_s:
+            return None
+        count, self._unsaid, self._said_t_s = self._unsaid, 0, t_s
+        return count
 
 
 class PositionHealth:
@@ -38,6 +63,7 @@ class PositionHealth:
         self._fix: tuple[float, codec.GpsFix] | None = None
         self._status: tuple[float, codec.EkfStatus] | None = None
         self._was_healthy: bool | None = None
+        self.refusals = ThrottledWarning()      # the log of refused fixes (absorb)
 
     def note(self, event: codec.GpsFix | codec.EkfStatus, t_s: float | None) -> None:
         """An inbound GPS_RAW_INT or EKF_STATUS_REPORT, at the vehicle's latest time t_s."""
@@ -107,8 +133,15 @@ def absorb(nav: Navigator, config: EstimatorConfig, health: PositionHealth,
         if sigma is not None:
             report = nav.correct_position(lpn.north_m, lpn.east_m, sigma)
             if report is not None and report.action == "outlier":
-                log.warning("autopilot position refused: NIS %.0f (%.1f, %.1f m off)",
-                            report.nis, *report.innovation)
+                count = health.refusals.note(lpn.t_s)
+                if count == 1:
+                    log.warning("autopilot position refused: NIS %.0f (%.1f, %.1f m off)",
+                                report.nis, *report.innovation)
+                elif count is not None:
+                    log.warning("autopilot position refused %d times in %.0f s (%d in all); "
+                                "the latest: NIS %.0f (%.1f, %.1f m off)", count,
+                                health.refusals.period_s, health.refusals.total, report.nis,
+                                *report.innovation)
             if report is not None and watch is not None:
                 verdict = watch.on_fix(lpn.t_s, report.action, report.innovation)
     return reports, verdict

@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import asyncio
 import dataclasses
+import json
 import logging
 import math
 import signal
@@ -77,6 +78,12 @@ class AutopilotSetup:
     defaults: Path
     takeoff_alt_m: float = 10.0
     service_start: str = "boot"     # boot (the docs' workflow) | airborne (started at altitude)
+    # Crash and restart (issue 31): SIGKILL the service once the true position passes this
+    # north (scenario frame), wait for ArduCopter's GUIDED timeout to stop the vehicle and
+    # ``restart_after_s`` of vehicle time more, start a new service (its tlog PATH.restarted);
+    # what happened goes to WORKDIR/crash.json
+    kill_at_north_m: float | None = None
+    restart_after_s: float = 3.0
 
 
 @dataclass(frozen=True)
@@ -252,12 +259,46 @@ async def fly(gcs: GroundStation, files: AutopilotFiles, scenario: Scenario, spe
                        >= ALTITUDE_REACHED * setup.takeoff_alt_m,
                        "the takeoff altitude", budget(CLIMB_BUDGET_S), children)
         children.append(await start_service())
+    if setup.kill_at_north_m is not None:
+        await kill_and_restart(gcs, files, setup, start_service, budget)
     flight_s = scenario.mission.max_time_s + CLIMB_BUDGET_S
     report = await wait_for(
         lambda: _not_disarmed(state) and (r := read_report(files.report)) and r.get("arrived")
         and r, "the service to report arrival", budget(flight_s), children)
     await _settle(state)
     return report
+
+
+STOPPED_SPEED_MPS = 0.1
+
+
+async def kill_and_restart(gcs: GroundStation, files: AutopilotFiles, setup: AutopilotSetup,
+                           start_service, budget) -> None:
+    """SIGKILL the service past ``setup.kill_at_north_m``, let the GUIDED timeout stop the
+    vehicle, start a new service; the times to WORKDIR/crash.json."""
+    state, children = gcs.recorder.state, gcs.children
+    await wait_for(lambda: _not_disarmed(state) and state.north_m is not None
+                   and state.north_m >= setup.kill_at_north_m,
+                   f"the vehicle past north {setup.kill_at_north_m} m", budget(120.0), children)
+    service = next(c for c in children if c.name == "companion")
+    service.proc.kill()
+    await service.proc.wait()
+    children.remove(service)
+    killed = {"killed_t_s": state.t_s, "killed_north_m": state.north_m,
+              "killed_speed_mps": state.speed_mps}
+    log.info("service killed (SIGKILL) at %.1f s, north %.1f m", state.t_s, state.north_m)
+    await wait_for(lambda: _not_disarmed(state) and state.t_s > killed["killed_t_s"] + 3.0
+                   and state.speed_mps < STOPPED_SPEED_MPS,
+                   "the vehicle stopped by the GUIDED timeout", budget(60.0), children)
+    stopped_t_s = state.t_s
+    await wait_for(lambda: state.t_s >= stopped_t_s + setup.restart_after_s,
+                   "the restart delay", budget(30.0), children)
+    restarted_t_s = state.t_s
+    children.append(await start_service(tlog=files.tlog.with_name(files.tlog.name + ".restarted"),
+                                        name="companion-restarted"))
+    log.info("service restarted at %.1f s", restarted_t_s)
+    (files.workdir / "crash.json").write_text(json.dumps(
+        {**killed, "stopped_t_s": stopped_t_s, "restarted_t_s": restarted_t_s}))
 
 
 def _not_disarmed(state) -> bool:
@@ -294,11 +335,12 @@ async def run_autopilot_demo(scenario_path: Path, scenario: Scenario, files: Aut
     children: list[Child] = []
     companion_port = sitl.free_udp_port()
 
-    async def start_service() -> Child:
-        return await spawn_in("companion", [
+    async def start_service(tlog: Path | None = None, name: str = "companion") -> Child:
+        return await spawn_in(name, [
             sys.executable, "-m", "companion", "-v", "run",
             "--connect", f"udpin:{sitl.LOOPBACK}:{companion_port}", "--config", str(files.config),
-            "--report", str(files.report), "--tlog", str(files.tlog)], files.workdir, files.workdir)
+            "--report", str(files.report), "--tlog", str(tlog or files.tlog)], files.workdir,
+            files.workdir)
 
     try:
         camera = await spawn_in("camera", [

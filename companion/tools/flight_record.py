@@ -48,6 +48,7 @@ class VehicleState:
     ekf_ready: bool = False
     origin_ne_m: tuple[float, float] | None = None   # the EKF origin in the scenario frame
     camera_seen: bool = False
+    north_m: float | None = None              # the truth (SIMSTATE), scenario frame
     status_texts: list[str] = field(default_factory=list)
 
 
@@ -123,6 +124,7 @@ class FlightRecorder:
         origin = self.scenario.world.origin
         north_m, east_m = to_north_east_m(origin.lat_deg, origin.lon_deg, sim.lat_deg,
                                           sim.lon_deg)
+        s.north_m = north_m
         record = {
             "t_s": s.t_s, "north_m": north_m, "east_m": east_m, "yaw_rad": sim.yaw_rad,
             "speed_mps": s.speed_mps, "armed": s.armed,

@@ -168,3 +168,35 @@ def test_the_paper_keeps_its_model_and_the_service_defaults_to_the_multicopter()
         == "velocity_ned"
     assert load_config("config/companion.yaml").estimator.motion_model == "velocity_ned"
     assert EstimatorConfig(range_sigma_m=0.1, bearing_sigma_deg=0.01).motion_model == "velocity_ned"
+
+
+def test_a_refused_autopilot_position_is_logged_once_then_counted_every_ten_seconds(caplog):
+    base = config(require_camera=False)
+    cfg = dataclasses.replace(base, estimator=dataclasses.replace(
+        base.estimator, position_fusion="on", position_sigma_m=0.5,
+        position_reset_after_s=None))                              # refused for ever
+    feed = Feed(Pipeline(cfg, GOAL))
+    feed.send(hb())
+    for _ in range(50):
+        feed.step()
+    assert feed.p.navigator.position_fixes["refused"] == 0
+    with caplog.at_level("WARNING", logger="companion.onboard.odometry_intake"):
+        for _ in range(600):            # 60 s of fixes 30 m off the estimate: one a second
+            feed.north_m += 30.0
+            feed.step()
+            feed.north_m -= 30.0
+    refused = feed.p.navigator.position_fixes["refused"]
+    lines = [r.getMessage() for r in caplog.records if "position refused" in r.getMessage()]
+    assert refused >= 55 and feed.p.position_health.refusals.total == refused
+    assert 6 <= len(lines) <= 7, lines            # at once, then once per 10 s of vehicle time
+    assert "refused:" in lines[0] and "times in 10 s" in lines[1]
+    said = [int(line.split("refused ")[1].split(" times")[0]) for line in lines[1:]]
+    assert 1 + sum(said) <= refused and all(8 <= n <= 11 for n in said)
+    assert f"({1 + sum(said)} in all)" in lines[-1]
+
+
+def test_the_throttled_warning_says_it_again_after_the_period_or_a_reboot():
+    from companion.onboard.odometry_intake import ThrottledWarning
+    w = ThrottledWarning(period_s=10.0)
+    assert [w.note(t) for t in (0.0, 1.0, 9.9, 10.0, 10.5)] == [1, None, None, 3, None]
+    assert w.note(2.0) == 2 and w.total == 6           # vehicle time went back: said at once
