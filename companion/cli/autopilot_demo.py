@@ -50,7 +50,7 @@ def setup_from(args: argparse.Namespace):
 
 def run_autopilot(args: argparse.Namespace, scenario_path: Path, scenario) -> int:
     from companion.tools.autopilot_demo import AutopilotFiles, run_autopilot_demo
-    from companion.tools.demo import demo_result, score
+    from companion.tools.demo_scoring import demo_result, score
     setup = setup_from(args)
     started = time.monotonic()
     with tempfile.TemporaryDirectory(prefix="companion-demo-ardupilot-") as tmp:

@@ -56,7 +56,8 @@ def add_parser(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from companion.tools.demo import DemoFiles, demo_result, flight_timing, run_demo, score
+    from companion.tools.demo import DemoFiles, run_demo
+    from companion.tools.demo_scoring import demo_result, flight_timing, score
     if args.speedup <= 0:
         raise CompanionError(f"--speedup: expected a positive number, got {args.speedup}")
     if not 0.0 <= args.drop_rate < 1.0:

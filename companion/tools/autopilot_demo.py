@@ -47,8 +47,8 @@ from companion.tools.child_lifetime import die_with_parent_hook
 from companion.config.scenario import Scenario
 from companion.config.service import config_to_dict, GoalConfig, load_config
 from companion.core.flat_earth import to_lat_lon_deg
-from companion.tools.demo import (GCS_SYSTEM_ID, Child, DemoError, DemoFiles, demo_config, read_report,
-                            read_truth, wait_for)
+from companion.tools.demo import GCS_SYSTEM_ID, Child, DemoError, DemoFiles, demo_config, wait_for
+from companion.tools.demo_scoring import read_report, read_truth
 from companion.tools.flight_record import FlightRecorder, companion_setpoints, takeoff_checks
 from companion.config.paths import resolve_config
 

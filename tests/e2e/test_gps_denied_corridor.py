@@ -17,7 +17,7 @@ import pytest
 import yaml
 from scipy.stats import chi2
 
-from companion.tools.demo import score
+from companion.tools.demo_scoring import score
 from companion.config.scenario import load_scenario
 from tests.e2e.test_demo_replay import companion
 
