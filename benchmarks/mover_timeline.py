@@ -93,10 +93,11 @@ def report(result: dict, every: int, out=sys.stdout) -> None:
     seen = [(t, f[oid]) for t, f in result["frames"] if oid in f]
     if not seen:
         print("  never seen", file=out)
-        return
-    t0 = seen[0][0]
-    print(f"  first sighting t {t0:.1f} s at {seen[0][1]:.1f} m; frames seen before CPA: "
-          f"{sum(t <= cpa['t'] for t, _ in seen)}", file=out)
+        t0 = cpa["t"] - 8.0            # the last 8 s before the CPA, for what the vehicle did
+    else:
+        t0 = seen[0][0]
+        print(f"  first sighting t {t0:.1f} s at {seen[0][1]:.1f} m; frames seen before CPA: "
+              f"{sum(t <= cpa['t'] for t, _ in seen)}", file=out)
 
     def first(pred):
         return next((r for r in recs if r["t"] >= t0 and pred(r)), None)
@@ -117,7 +118,7 @@ def report(result: dict, every: int, out=sys.stdout) -> None:
             extra = (f" v ({v[0]:+.2f}, {v[1]:+.2f}) sigma {s if s is None else round(s, 2)}, "
                      f"position off {np.hypot(*(p - r['obstacles'][row])):.2f} m")
         print(f"  {name}: t {r['t']:.1f} s (+{r['t'] - t0:.1f}), range {rng:.1f} m{extra}", file=out)
-    print("   t     range  v_veh   mode          cmd_v  cmd_hdg  nose  knows", file=out)
+    print("   t     range  v_veh   mode          cmd_v  cmd_hdg  nose  bearing  knows", file=out)
     shown = [r for r in recs if t0 - 0.5 <= r["t"] <= cpa["t"] + 1.0]
     for k, r in enumerate(shown):
         if k % every and r is not shown[-1]:
@@ -128,8 +129,11 @@ def report(result: dict, every: int, out=sys.stdout) -> None:
                  else "-")
         vel = r["vel"]
         vv = float(np.hypot(*vel)) if vel is not None else float("nan")
+        gap = r["obstacles"][row] - r["pose"][:2]
+        bearing = math.degrees(math.remainder(math.atan2(gap[1], gap[0]) - r["pose"][2], 2 * math.pi))
         print(f"  {r['t']:5.1f} {rng:6.1f} {vv:5.1f}   {r['mode'][:12]:12s} {r['speed']:5.1f} "
-              f"{r['heading']:7.0f} {math.degrees(r['pose'][2]):5.0f}  {knows}", file=out)
+              f"{r['heading']:7.0f} {math.degrees(r['pose'][2]):5.0f}  {bearing:7.0f}  {knows}",
+              file=out)
 
 
 def main() -> int:
