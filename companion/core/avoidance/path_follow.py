@@ -30,11 +30,10 @@ import numpy as np
 
 from companion.core.avoidance.arc import clearance, fly_out
 from companion.core.avoidance.guidance import (GuidanceCommand, GuidanceInputs, GuidanceParams,
-                                               approach_speed, inflated_radius, toward_goal)
+                                               approach_speed, toward_goal)
 from companion.core.avoidance.path_search import PlannedPath, plan_path
-from companion.core.avoidance.union import (MAX_SPREAD_M, UnionParams, sensed_speed_limit,
-                                            turn_speed_factor)
-from companion.core.avoidance.velocity_choice import _unseen_margin, guide_flyable
+from companion.core.avoidance.union import UnionParams, sensed_speed_limit, turn_speed_factor
+from companion.core.avoidance.velocity_choice import _unseen_margin, guide_flyable, safety_radii
 
 SPEED_FRACTIONS = (1.0, 0.75, 0.5, 0.25)
 BRAKE_ABOVE_MPS = 0.5     # no way on along the leg: faster than this, brake first (the velocity
@@ -43,20 +42,6 @@ OFFSETS_RAD = tuple(math.radians(a) for a in (0.0, 5.0, -5.0, 10.0, -10.0))
 # at the slowest speed, then wider: a way on that the grid's resolution missed
 WIDE_OFFSETS_RAD = tuple(math.radians(a) for a in (20.0, -20.0, 30.0, -30.0, 45.0, -45.0,
                                                    60.0, -60.0, 90.0, -90.0))
-
-
-def safety_radii(inputs: GuidanceInputs, params: GuidanceParams) -> np.ndarray:
-    """(n,) each obstacle's safety radius as the velocity choice takes it: d, inflated by the
-    relative position's sigma when configured, widened by the spread (at most MAX_SPREAD_M)."""
-    obstacles, rel_covs, spread_m = inputs.obstacles, inputs.rel_covs, inputs.spread_m
-    if rel_covs is None or params.inflation_sigmas <= 0.0:
-        radii = np.full(len(obstacles), params.safety_distance_m)
-    else:
-        radii = np.array([inflated_radius(params.safety_distance_m, cov, params.inflation_sigmas)
-                          for cov in rel_covs])
-    if spread_m is not None and len(obstacles):
-        radii = radii + np.minimum(spread_m, MAX_SPREAD_M)
-    return radii
 
 
 def guide_along_path(inputs: GuidanceInputs, params: GuidanceParams,

@@ -42,6 +42,20 @@ FIRST_CHUNK = 32           # candidates rolled out before the rest (see _first_p
 GRID = np.linspace(-math.pi, math.pi, 72, endpoint=False)     # 5 degrees, beside the cone edges
 
 
+def safety_radii(inputs: GuidanceInputs, params: GuidanceParams) -> np.ndarray:
+    """(n,) each obstacle's safety radius as the velocity choice takes it: d, inflated by the
+    relative position's sigma when configured, widened by the spread (at most MAX_SPREAD_M)."""
+    obstacles, rel_covs, spread_m = inputs.obstacles, inputs.rel_covs, inputs.spread_m
+    if rel_covs is None or params.inflation_sigmas <= 0.0:
+        radii = np.full(len(obstacles), params.safety_distance_m)
+    else:
+        radii = np.array([inflated_radius(params.safety_distance_m, cov, params.inflation_sigmas)
+                          for cov in rel_covs])
+    if spread_m is not None and len(obstacles):
+        radii = radii + np.minimum(spread_m, MAX_SPREAD_M)
+    return radii
+
+
 def guide_flyable(inputs: GuidanceInputs, params: GuidanceParams,
                   union: UnionParams) -> GuidanceCommand:
     """The union law on paths the vehicle can fly (``inputs.motion``: its limits and velocity
@@ -61,13 +75,7 @@ def guide_flyable(inputs: GuidanceInputs, params: GuidanceParams,
         cruise = min(cruise, sensed_speed_limit(union.sensor_range_m, params.safety_distance_m,
                                                 motion.max_accel_mps2, union.perception_delay_s))
     reference = pose[2] if previous_heading_rad is None else previous_heading_rad
-    if rel_covs is None or params.inflation_sigmas <= 0.0:
-        radii = np.full(len(obstacles), params.safety_distance_m)
-    else:
-        radii = np.array([inflated_radius(params.safety_distance_m, cov, params.inflation_sigmas)
-                          for cov in rel_covs])
-    if spread_m is not None and len(obstacles):
-        radii = radii + np.minimum(spread_m, MAX_SPREAD_M)
+    radii = safety_radii(inputs, params)
     gaps = np.hypot(*(obstacles - pose[:2]).T) - radii if len(obstacles) else np.empty(0)
     speeds = np.zeros(len(obstacles)) if velocities is None else np.hypot(*velocities.T)
     # what the roll-out can reach: the look-ahead at the faster of now and cruise, then a stop
