@@ -62,6 +62,18 @@ class SoakResult:
         return self.rss_end_mb / self.rss_half_time_mb - 1.0
 
 
+def _stop(*procs: subprocess.Popen | None) -> None:
+    """SIGTERM each process still running, SIGKILL it after 10 s, and reap it."""
+    for proc in procs:
+        if proc is not None and proc.poll() is None:
+            proc.send_signal(signal.SIGTERM)
+            try:
+                proc.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait()
+
+
 def _ready_ports(stub: subprocess.Popen, timeout_s: float = 20.0) -> tuple[int, int]:
     deadline = time.monotonic() + timeout_s
     while time.monotonic() < deadline:
@@ -139,13 +151,7 @@ def soak(minutes: float, speedup: float, scenario: Path, workdir: Path,
         wall_s = time.monotonic() - started
         gcs.close()
     finally:
-        for proc in (daemon, stub):
-            if proc is not None and proc.poll() is None:
-                proc.send_signal(signal.SIGTERM)
-                try:
-                    proc.wait(timeout=10)
-                except subprocess.TimeoutExpired:
-                    proc.kill()
+        _stop(daemon, stub)
     report = json.loads(report_path.read_text())
     return SoakResult(first_minute_mb or samples[-1][1], rss_end_mb, wall_s, samples, report)
 
@@ -367,14 +373,7 @@ def mission_soak(sim_hours: float, workdir: Path, scenario: Path = REPO / "confi
         samples.append(ProcSample(sim_s, time.monotonic() - started, proc_rss_mb(pid),
                                   proc_fds(pid), tlog.stat().st_size, proc_cpu_s(pid)))
     finally:
-        for proc in (daemon, stub):
-            if proc is not None and proc.poll() is None:
-                proc.send_signal(signal.SIGTERM)
-                try:
-                    proc.wait(timeout=10)
-                except subprocess.TimeoutExpired:
-                    proc.kill()
-                    proc.wait()
+        _stop(daemon, stub)
         stub_err.close()
     text = companion_err.read_text(errors="replace")
     return MissionSoakResult(samples, flown, complete, sim_s, time.monotonic() - started,
