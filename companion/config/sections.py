@@ -59,6 +59,10 @@ class AvoidanceConfig:
     evade_movers: bool = False            # a multicopter's evasion of near movers: side-step,
                                           # back off or stop with the nose held
                                           # (core/avoidance/evade.py; docs/copter-headon-failures.md)
+    keep_near_tracks: bool = False        # a multicopter's coasting mover track, predicted within
+                                          # the camera's range but out of its view, is kept until
+                                          # the camera could have seen it there (movers.prune; on
+                                          # with evade_movers; docs/copter-headon-failures.md)
     # Avoidance in 3D (core/avoidance/vertical.py): climb over what costs less to climb than to
     # fly round. None: off, except on the random worlds of heights (lowwalls, mixed): on.
     vertical: bool | None = None
@@ -100,6 +104,7 @@ class AvoidanceConfig:
         return UnionParams(lookahead_s=self.lookahead_s, hysteresis=self.hysteresis, fov_rad=fov,
                            gap_margin_m=self.gap_margin_m, headway_first=self.headway_first,
                            evade_movers=self.evade_movers,
+                           keep_near_tracks=self.keep_near_tracks,
                            path=PathParams() if self.path_search else None,
                            flank_scan_rad=None if self.flank_scan_deg is None
                            else math.radians(self.flank_scan_deg),

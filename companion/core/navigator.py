@@ -488,7 +488,7 @@ class Navigator:
         if self.archive is not None:
             reports.extend(self._bound_map())
         # a multicopter's only (a unicycle's flights stay as they were; the same reason holds)
-        keep = self.union.evade_movers and self.limits is not None \
+        keep = (self.union.keep_near_tracks or self.union.evade_movers) and self.limits is not None \
             and self.limits.lateral_accel_limited and self.union.sensor_range_m is not None
         self.movers.prune(self.clock_s, self._unseeable_near if keep else None)
         return reports

@@ -60,6 +60,8 @@ class UnionParams:
     evade_movers: bool = False        # velocity choice (a multicopter's): side-step, back-off and
                                       # stop candidates with the nose held when a mover is near,
                                       # coasting tracks kept while unseeable near (evade.py)
+    keep_near_tracks: bool = False    # a coasting mover track predicted near but out of view is
+                                      # kept (movers.prune; with evade_movers always)
 
 
 def turn_speed_factor(heading_rad: float, desired_rad: float, fov_rad: float) -> float:
