@@ -48,7 +48,7 @@ def timeline(scenario, seed: int) -> dict:
                 t=t_s, pose=truth.pose.copy(), vel=None if getattr(truth, "vel_ne_mps", None) is None else truth.vel_ne_mps.copy(),
                 obstacles=truth.obstacle_positions().copy(), mode=command.mode,
                 speed=command.speed_mps, heading=math.degrees(command.heading_rad),
-                young={k: (v[0].copy(), v[1]) for k, v in nav._young_found.items()},
+                young={k: (v[0].copy(), v[1]) for k, v in nav.view.young_found.items()},
                 tentative={k for k in nav.slam.landmark_ids() if nav.lifecycle.is_tentative(k)},
                 mapped=set(nav.slam.landmark_ids()),
                 tracks={k: (m.position_ne_m.copy(), m.velocity_ne_mps.copy(),

@@ -325,7 +325,7 @@ def measure_replay(tlog: Path, reps: int) -> dict:
     """companion replay in-process vs pymavlink parsing alone, alternated, medians."""
     from pymavlink import mavutil
 
-    from companion.core import navigator
+    from companion.core.navigation import navigator
     from companion.tools.replay import replay_tlog
     config = load_config(tlog.with_suffix(".config.yaml"))
     parse_s, replay_s, messages, parsed = [], [], 0, 0

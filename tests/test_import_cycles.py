@@ -80,8 +80,8 @@ def cycles(graph: dict[str, set[str]]) -> list[list[str]]:
 
 def test_the_walk_sees_the_package():
     graph = import_graph()
-    assert "companion.core.navigator" in graph
-    assert "companion.core.estimation.ekf_slam" in graph["companion.core.navigator"]
+    assert "companion.core.navigation.navigator" in graph
+    assert "companion.core.estimation.estimator" in graph["companion.core.navigation.navigator"]
 
 
 def test_a_cycle_is_found():

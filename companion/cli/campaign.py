@@ -13,7 +13,7 @@ import time
 from companion.cli.replay import DEFAULT_CONFIG as REPLAY_CONFIG
 from companion.cli.simulate import DEFAULT_SCENARIO, _positive_int
 from companion.config.scenario import load_scenario
-from companion.core.navigator import STRATEGIES
+from companion.core.navigation.decider import STRATEGIES
 from companion.errors import CompanionError
 from companion.tools.report import _fmt, print_summary, write_json
 from companion.sim.worlds import WORLD_KINDS

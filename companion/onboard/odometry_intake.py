@@ -14,7 +14,7 @@ from companion.mavlink import codec
 from companion.config.sections import EstimatorConfig
 from companion.core.estimation.slam_types import UpdateReport
 from companion.core.avoidance.guidance import GuidanceCommand
-from companion.core.navigator import Navigator
+from companion.core.navigation.navigator import Navigator
 from companion.core.estimation.position_reset import PositionResetWatch, ResetVerdict, UnaidedDrift
 
 log = logging.getLogger(__name__)

@@ -45,7 +45,7 @@ from companion.config.service import CompanionConfig, GoalConfig
 from companion.core.perception.blobs import BlobParams, sector_observations
 from companion.core.geometry import wrap_angle
 from companion.core.avoidance.guidance import shape_setpoint
-from companion.core.navigator import Navigator
+from companion.core.navigation.navigator import Navigator
 from companion.onboard.safety.clock import ClockLimits, EpochCamera, VehicleClock
 from companion.onboard.safety.gate import SetpointGate, SetpointLimits
 from companion.onboard.safety.liveness import Liveness

@@ -20,7 +20,7 @@ from companion.core.avoidance.arc import VehicleLimits
 from companion.core.geometry import wrap_angle
 from companion.core.avoidance.guidance import limit_turn, shape_setpoint
 from companion.core.avoidance.look_at import LookAtParams
-from companion.core.navigator import Navigator
+from companion.core.navigation.navigator import Navigator
 from companion.core.avoidance.vertical import VerticalParams
 from companion.core.perception.vertical_extent import ExtentParams
 from companion.sim.truth import TruthWorld

@@ -26,7 +26,7 @@ import numpy as np
 from companion.config.scenario import Scenario
 from companion.config.sections import AvoidanceConfig
 from companion.config.loader import FieldError
-from companion.core.navigator import STRATEGIES
+from companion.core.navigation.decider import STRATEGIES
 from companion.errors import CompanionError
 from companion.sim.simulation import aggregate_summaries, run_once
 from companion.sim.worlds import random_world

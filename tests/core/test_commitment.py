@@ -172,7 +172,7 @@ def test_a_mover_seen_for_half_a_second_is_flown_around_where_it_goes():
     not moved."""
     from companion.core.estimation.slam_types import AssociationGates, Observation, SlamNoise
     from companion.core.geometry import observe
-    from companion.core.navigator import Navigator
+    from companion.core.navigation.navigator import Navigator
     noise = SlamNoise(0.3, math.radians(0.02), 0.1, 0.1, math.radians(0.01))
     nav = Navigator(np.zeros(3), np.eye(3) * 1e-8, noise, AssociationGates(), params(5.0),
                     np.array([200.0, 0.0]), "union",
@@ -191,8 +191,8 @@ def test_a_mover_seen_for_half_a_second_is_flown_around_where_it_goes():
     # guidance's view as decide() asks for it for the velocity choice
     obstacles, velocities, _, movers = nav.obstacles(young_movers=True)
     assert not movers and velocities is None            # the map: two landmarks on probation
-    moved, guided, growth = nav._young_motion(obstacles, velocities, None)
-    keys = nav._guidance_keys
+    moved, guided, growth = nav.view.young_motion(obstacles, velocities, None)
+    keys = nav.view.guidance_keys
     m, p = keys.index(1), keys.index(2)
     assert guided[m] == pytest.approx(velocity, abs=0.5)
     assert np.hypot(*(moved[m] - (mover0 + velocity * t))) < 1.0     # where it is now

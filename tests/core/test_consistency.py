@@ -11,7 +11,8 @@ from companion.core.estimation.consistency import (ConsistencyMonitor, MonitorPa
 from companion.core.estimation.ekf_slam import EkfSlam
 from companion.core.estimation.slam_types import AssociationGates, Observation
 from companion.core.geometry import observe
-from companion.core.navigator import EstimatorOptions, Navigator
+from companion.core.estimator_options import EstimatorOptions
+from companion.core.navigation.navigator import Navigator
 from tests.core.test_ekf_slam import NOISE
 from tests.core.test_navigator_timing import PARAMS
 
@@ -120,9 +121,9 @@ def test_a_landmark_corrects_the_pose_only_once_established():
     for k in range(4):                       # four sightings over 4.5 s: probation past, but few
         nav.on_odometry(1.5 * k, 0.0, 0.0)
         nav.on_observations(1.5 * k, [Observation(*observe(np.zeros(3), landmark), 9)])
-    assert 9 in nav._young
+    assert 9 in nav.probation.young
     pose = nav.slam.pose
     nav.on_odometry(6.0, 0.0, 0.0)
     nav.on_observations(6.0, [Observation(*(observe(np.zeros(3), landmark) + [0.05, 0.0]), 9)])
     assert np.array_equal(nav.slam.pose, pose)          # still on probation: landmark only
-    assert 9 not in nav._young                          # the fifth sighting established it
+    assert 9 not in nav.probation.young                          # the fifth sighting established it

@@ -1,5 +1,5 @@
 """The multicopter's young points share the filter's yaw error: two sightings 0.2 s apart must
-not count it twice (motion_evidence.shared_yaw_velocity_cov, navigator._yaw_transfer_log)."""
+not count it twice (motion_evidence.shared_yaw_velocity_cov, Estimator.yaw_transfer_log)."""
 import math
 
 import numpy as np
@@ -38,7 +38,7 @@ def fly(seed: int, frames: int = 0, mover: Obstacle | None = None, steps: int = 
             nav.observe(frame)
             seen += bool(frame)
             errors.append((wrap_angle(float(nav.slam.mean[2]) - truth.pose[2]),
-                           float(nav.slam.cov[2, 2]), nav._yaw_transfer_log()))
+                           float(nav.slam.cov[2, 2]), nav.estimator.yaw_transfer_log()))
             if mover is not None and seen >= frames:
                 break
     return nav, errors
@@ -68,14 +68,14 @@ def test_two_sightings_of_a_crossing_mover_give_its_velocity_to_about_one_metre_
     # the two-sighting rule (5 sigma) cannot fire below 10 m/s; shared, +-0.9 m/s, and the
     # velocity found is within 3 sigma of the truth.
     nav, _ = fly(seed, frames=2, mover=crossing())
-    young = nav._young[1]
+    young = nav.probation.young[1]
     assert len(young.times) == 2
-    velocity, sigma = nav._apparent_velocity(young)
+    velocity, sigma = nav.probation.apparent_velocity(young)
     assert sigma < 1.0
     assert np.hypot(*(velocity - TRUE_VELOCITY)) < 3.0 * sigma
 
 
 def test_a_crossing_mover_seen_twice_is_flown_round_on_some_seeds():
-    shown = sum(1 in fly(seed, frames=2, mover=crossing())[0]._young_evidence()
+    shown = sum(1 in fly(seed, frames=2, mover=crossing())[0].probation.evidence()
                 for seed in range(10))
     assert shown >= 3                                    # 0 of 10 with the yaw counted twice

@@ -12,7 +12,7 @@ from companion.config.service import load_config
 from companion.config.world import Goal, Obstacle, StartPose
 from companion.core.geometry import wrap_angle
 from companion.core.avoidance.look_at import GoalLookParams, goal_look_yaw
-from companion.core.navigator import Navigator
+from companion.core.navigation.decider import Decider
 from companion.errors import ConfigError
 from companion.onboard.pipeline import Pipeline
 from companion.sim.simulation import run_once
@@ -125,7 +125,7 @@ def test_a_crosser_behind_a_swerve_is_seen_and_avoided_only_with_the_look(seed):
 def test_the_look_changes_only_the_yaw_within_the_offset_and_the_turn_rate(monkeypatch):
     scenario = swerve_and_crosser(30.0)
     looks, shaped = [], []
-    plain = Navigator._look_toward_goal
+    plain = Decider._look_toward_goal
 
     def recorded(self, command):
         out = plain(self, command)
@@ -138,7 +138,7 @@ def test_the_look_changes_only_the_yaw_within_the_offset_and_the_turn_rate(monke
         return out
 
     real_shape = simulation.shape_setpoint
-    monkeypatch.setattr(Navigator, "_look_toward_goal", recorded)
+    monkeypatch.setattr(Decider, "_look_toward_goal", recorded)
     monkeypatch.setattr(simulation, "shape_setpoint", shape)
     outcome = run_once(scenario, 0)
     assert outcome.summary["reached_goal"]

@@ -153,7 +153,7 @@ def test_tentative_landmarks_never_correct_the_pose(confirm_hits, moves):
     see(nav, (40.0, 0.0))
     nav.predict(0.0, 0.0, 0.2)                   # probation over (mover_probation_s = 0)
     see(nav, (40.0, 0.0))
-    assert not nav._young
+    assert not nav.probation.young
     before = nav.slam.pose
     shifted = nav.slam.landmarks()[0] + (0.1, 0.0)
     see(nav, shifted)                            # 0.1 m further than the map has it (1 sigma)

@@ -10,7 +10,7 @@ from companion.core.estimation.ekf_slam import AssociationGates, EkfSlam, Observ
 from companion.core.estimator_options import EstimatorOptions
 from companion.core.avoidance.guidance import GuidanceParams
 from companion.core.estimation.map_archive import ArchiveParams, MapArchive, stale
-from companion.core.navigator import Navigator
+from companion.core.navigation.navigator import Navigator
 
 NOISE = SlamNoise(0.1, math.radians(0.5), 0.1, 0.1, math.radians(1.0))
 

@@ -6,13 +6,14 @@ import math
 import numpy as np
 import pytest
 
-from companion.core import navigator as navigator_module
+from companion.core.navigation import decider as decider_module
 from companion.core.avoidance.arc import VehicleLimits
 from companion.core.estimation.slam_types import AssociationGates, Observation, SlamNoise
 from companion.core.geometry import observe
 from companion.core.avoidance.guidance import GuidanceParams
 from companion.core.estimation.movers import MoverParams, MoverTracker, mover_spread
-from companion.core.navigator import SPREAD_MIN_UPDATES, Navigator
+from companion.core.navigation.navigator import Navigator
+from companion.core.navigation.obstacle_view import SPREAD_MIN_UPDATES
 from companion.core.avoidance.union import UnionParams
 
 LIMITS = VehicleLimits(math.radians(30.0), 2.5)
@@ -64,12 +65,12 @@ def test_the_velocity_choice_is_given_a_confirmed_tracks_spread(monkeypatch):
     for step in range(1, 31):                        # 3 s with nothing in view
         nav.on_odometry(0.1 * step, 5.0, 0.0)
     seen = {}
-    real = navigator_module.guide_flyable
+    real = decider_module.guide_flyable
 
     def spy(inputs, *args):
         seen["spread"] = inputs.spread_m
         return real(inputs, *args)
-    monkeypatch.setattr(navigator_module, "guide_flyable", spy)
+    monkeypatch.setattr(decider_module, "guide_flyable", spy)
     nav.decide(3.0)
     states = nav.movers.states(nav.clock_s)
     spread = seen["spread"]
@@ -97,9 +98,9 @@ def test_a_mover_on_probation_out_of_view_spreads_by_its_velocity_sigma_times_it
         for step in steps:
             nav.on_odometry(step * 0.1, 5.0, 0.0)
         obstacles, velocities, _, movers = nav.obstacles(young_movers=True)
-        growths.append(nav._young_motion(obstacles, velocities, None)[2])
-        spreads.append(nav._spread(movers, len(obstacles), LIMITS.motion(5.0, 0.0)))
-    keys = nav._guidance_keys
+        growths.append(nav.view.young_motion(obstacles, velocities, None)[2])
+        spreads.append(nav.view.spread(movers, len(obstacles), LIMITS.motion(5.0, 0.0)))
+    keys = nav.view.guidance_keys
     m, p = keys.index(1), keys.index(2)
     assert spreads[0][p] == 0.0 and spreads[1][p] == 0.0
     assert 0.0 < spreads[0][m] < spreads[1][m]

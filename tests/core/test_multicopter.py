@@ -11,7 +11,8 @@ from companion.config.world import StartPose
 from companion.core.estimation.ekf_slam import EkfSlam
 from companion.core.estimation.slam_types import AssociationGates, Observation, VelocityNoise
 from companion.core.geometry import move_velocity, move_velocity_jacobians
-from companion.core.navigator import EstimatorOptions, Navigator
+from companion.core.estimator_options import EstimatorOptions
+from companion.core.navigation.navigator import Navigator
 from companion.sim.simulation import make_navigator, pose_nees
 from companion.sim.truth import TruthWorld
 from tests.core.test_ekf_slam import NOISE

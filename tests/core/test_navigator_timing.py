@@ -8,7 +8,7 @@ import pytest
 from companion.core.estimation.slam_types import AssociationGates, Observation, SlamNoise
 from companion.core.geometry import observe
 from companion.core.avoidance.guidance import GuidanceParams
-from companion.core.navigator import Navigator
+from companion.core.navigation.navigator import Navigator
 
 NOISE = SlamNoise(0.3, math.radians(0.02), 0.1, 0.1, math.radians(0.01))
 PARAMS = GuidanceParams(5.0, 10.0, 4.0, 1.25, 2.0)

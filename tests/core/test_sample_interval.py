@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from companion.core.estimation.slam_types import AssociationGates, VelocityNoise
-from companion.core.navigator import EstimatorOptions, Navigator
+from companion.core.estimator_options import EstimatorOptions
+from companion.core.navigation.navigator import Navigator
 from companion.core.sample_interval import (MeanInterval, at_least_reference_s,
                                             interval_turn_rate, long_interval,
                                             setpoint_interval_s)

@@ -85,7 +85,7 @@ def test_an_old_landmark_that_starts_moving_starts_its_track_at_the_velocity_its
         nav.predict(SPEED, 0.0, DT)
         pose = pose + [SPEED * DT, 0.0, 0.0]
         if abs(t - moving_from) < 1e-6:
-            assert 7 in nav.slam.landmark_ids() and 7 not in nav._young     # established
+            assert 7 in nav.slam.landmark_ids() and 7 not in nav.probation.young     # established
         where = post + velocity * max(t - moving_from, 0.0)
         z = observe(pose, where)
         nav.observe([Observation(float(z[0]), float(z[1]), 7)])

@@ -1,6 +1,6 @@
 """Issue 16: a crossing mover seen in only two frames, at the edge of the camera's view, before the
 vehicle turns away is still tentative (3 sightings confirm a landmark). Its two sightings already
-show its velocity (navigator._young_evidence), so the velocity choice flies round it as a mover
+show its velocity (MoverProbation.evidence), so the velocity choice flies round it as a mover
 while it is out of view; with a third sighting required (the rule off) it is never in the
 decision and the vehicle flies into it. A landmark on probation flown round as a mover and then
 unseen for as long as a track coasts is forgotten as the track would be."""
@@ -14,7 +14,7 @@ from companion.core.estimation.slam_types import AssociationGates, Observation, 
 from companion.core.geometry import move, observe, wrap_angle
 from companion.core.avoidance.guidance import GuidanceParams, limit_turn
 from companion.core.estimation.movers import MoverParams
-from companion.core.navigator import Navigator
+from companion.core.navigation.navigator import Navigator
 from companion.core.avoidance.union import UnionParams
 
 TURN_RATE = math.radians(30.0)
@@ -43,7 +43,7 @@ def fly(young_min_sightings: int) -> tuple[float, bool]:
     for step in range(1, 300):
         t = step * DT
         command, _ = nav.decide(t - DT)
-        flown_round = flown_round or bool(nav._young_movers)
+        flown_round = flown_round or bool(nav.view.young_movers)
         if command.mode == "arrived":
             break
         change = limit_turn(pose[2], command.heading_rad, TURN_RATE, DT)
@@ -90,7 +90,7 @@ def test_two_sightings_of_a_static_post_do_not_make_it_a_mover():
     assert nav.lifecycle.is_tentative(3)
     obstacles, _, _, _ = nav.obstacles(young_movers=True)
     assert len(obstacles) == 0
-    assert nav._young_evidence() == {}
+    assert nav.probation.evidence() == {}
 
 
 def test_young_min_sightings_is_checked():
@@ -119,6 +119,6 @@ def test_a_young_mover_unseen_for_as_long_as_a_track_coasts_is_forgotten():
                                          Observation(*observe(np.zeros(3), post), 2)]
             nav.observe(frame)
         if step == int((coast - 1.0) / DT):
-            assert 1 in nav._young_evidence() and 1 in nav.slam.landmark_ids()
+            assert 1 in nav.probation.evidence() and 1 in nav.slam.landmark_ids()
     assert nav.slam.landmark_ids() == [2]
-    assert nav._young_evidence() == {}
+    assert nav.probation.evidence() == {}

@@ -1,7 +1,7 @@
 """Is a young landmark's history the track of one moving object, or clutter?
 
 A landmark on probation is judged moving when the least-squares velocity of its dead-reckoned
-points is fast and many standard errors from zero (navigator._judge_young, core/estimation/movers.py). Two
+points is fast and many standard errors from zero (MoverProbation.judge, core/estimation/movers.py). Two
 points always fit a straight line, so two false alarms a few metres apart, or a false alarm and
 the first sighting of a post beside it, look like an object moving at metres a second. A track
 is evidence of motion only when at least ``MIN_TRACK_POINTS`` points lie on one constant-velocity
@@ -54,7 +54,7 @@ def shared_yaw_velocity_cov(times_s, ranges_m, directions_rad, yaw_vars_rad2,
     independent noise); through a correction it is scaled by (1 - K H) of the yaw, so
     Cov(e_i, e_j) = exp(L_j - L_i) P_i for t_i <= t_j, where P_i is the yaw variance the point
     i was placed with and L the running log of the corrections' factors
-    (navigator._yaw_log_transfer). Two frames 0.2 s apart share nearly all of their yaw error,
+    (Estimator.yaw_transfer_log). Two frames 0.2 s apart share nearly all of their yaw error,
     and it cancels in their difference instead of counting twice.
     """
     times = np.asarray(times_s, dtype=float)

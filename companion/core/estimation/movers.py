@@ -34,7 +34,7 @@ class MoverParams:
     speed_sigmas: float = 5.0            # and the speed must exceed this many standard errors
     young_min_sightings: int = 2         # a landmark on probation (tentative or not) whose this
                                          # many sightings already show motion is flown around as a
-                                         # mover (navigator._young_evidence)
+                                         # mover (MoverProbation.evidence)
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,1 @@
+"""The navigator: estimation and avoidance composed (a facade, the obstacle view, the decider)."""
