@@ -90,3 +90,29 @@ def test_a_cycle_is_found():
 
 def test_no_import_cycle_in_companion():
     assert cycles(import_graph()) == []
+
+
+def reachable(graph: dict[str, set[str]], start: str) -> set[str]:
+    """Every module ``start`` imports, directly or through others."""
+    seen: set[str] = set()
+    todo = [start]
+    while todo:
+        for target in graph[todo.pop()]:
+            if target not in seen:
+                seen.add(target)
+                todo.append(target)
+    return seen
+
+
+def test_the_adapter_layer_does_not_import_the_filter():
+    """companion/mavlink/ (codecs, link, tlog) gets its types from slam_types.py, never from the
+    filter or the navigator (issue 29 point 3)."""
+    graph = import_graph()
+    adapters = [name for name in graph if name.startswith("companion.mavlink")]
+    assert "companion.mavlink.codec" in adapters
+    for name in adapters:
+        reached = reachable(graph, name)
+        assert not {m for m in reached if m.startswith(("companion.core.estimation.ekf",
+                                                         "companion.core.navigation"))}, name
+    assert "companion.core.estimation.ekf.corrections" in reachable(
+        graph, "companion.core.estimation.ekf_slam")

@@ -112,7 +112,7 @@ def test_unknown_ids_are_added_and_bad_frames_refused():
 
 
 def test_the_frame_inverse_is_the_inverse_for_definite_and_indefinite_s():
-    from companion.core.estimation.ekf_slam import _spd_inverse
+    from companion.core.estimation.ekf.kernels import _spd_inverse
     rng = np.random.default_rng(3)
     a = rng.normal(size=(6, 6))
     for s in (a @ a.T + 6.0 * np.eye(6), a + a.T):       # positive definite, then indefinite

@@ -100,9 +100,12 @@ class UpdateReport:
     """What one update did. ``action``, from the filter (ekf_slam.py): 'updated', 'added',
     'ambiguous', 'outlier' (a landmark observation refused by its gate; also a refused position
     fix), 'position' (a position fix fused), 'yaw' and 'yaw_reset' (the autopilot's yaw fused,
-    or taken after a jump); from the navigator: 'moved' (a young landmark seen where it moved
-    to), 'mover' (a track updated), 'mover_detected' (a landmark demoted to a track), 'deleted'
-    and 'expired' (the lifecycle's removals, a young mover's coasting out)."""
+    or taken after a jump); from the landmark manager (landmark_manager.py): 'ambiguous' (also
+    an observation its frame's association left unpaired), 'moved' (a young landmark seen where
+    it moved to), 'deleted' and 'expired' (the lifecycle's removals), 'archived' (a landmark
+    behind and unseen moved to the bounded map's archive); from mover probation
+    (probation.py): 'mover' (a track updated), 'mover_detected' (a landmark demoted to a
+    track), 'expired' (a young mover's coasting out)."""
     action: str
     landmark_index: int | None
     innovation: tuple[float, float] | None
