@@ -153,7 +153,7 @@ class Service:
         if self.clock is None and self._is_vehicle(event):
             self.notice_clock.observe(event)
         if self.tlog is not None:
-            self.tlog.write(t_us, bytes(received.msg.get_msgbuf()))
+            self.tlog.write(t_us, codec.packet_bytes(received.msg))
         if self.clock is not None and self.clock.heartbeat_due():
             self._send_identity()
         if isinstance(event, codec.CommandAck) and pipeline.vehicle == (

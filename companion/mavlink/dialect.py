@@ -1,7 +1,8 @@
-"""The MAVLink dialect every module here speaks, set up once, and the message ids named once.
+"""The MAVLink dialect every module here speaks, set up once, and its numbers named once.
 
-MAVLink 2 (``MAVLINK20`` before pymavlink loads), ArduPilot's ``ardupilotmega`` dialect. The
-codecs (codec.py, mission_codec.py, param_codec.py, gcs_codec.py) take ``mavlink`` and the ids from here.
+MAVLink 2 (``MAVLINK20`` before pymavlink loads), ArduPilot's ``ardupilotmega`` dialect. Every
+module of mavlink/ takes ``mavlink``, the message ids, the component ids, the severities and the
+data-stream groups from here; no other module in companion/ imports pymavlink.
 """
 from __future__ import annotations
 
@@ -25,3 +26,21 @@ MSG_ID_GPS_GLOBAL_ORIGIN = msg_id("GPS_GLOBAL_ORIGIN")
 MSG_ID_GPS_RAW_INT = msg_id("GPS_RAW_INT")
 MSG_ID_EKF_STATUS_REPORT = msg_id("EKF_STATUS_REPORT")
 MSG_ID_SIMSTATE = msg_id("SIMSTATE")
+
+
+# Component ids, STATUSTEXT severities and the REQUEST_DATA_STREAM groups the service names.
+MAV_COMP_ID_AUTOPILOT1 = mavlink.MAV_COMP_ID_AUTOPILOT1
+MAV_COMP_ID_ONBOARD_COMPUTER = mavlink.MAV_COMP_ID_ONBOARD_COMPUTER    # 191
+MAV_COMP_ID_MISSIONPLANNER = mavlink.MAV_COMP_ID_MISSIONPLANNER        # 190, the demo's GCS
+SEVERITY_WARNING = mavlink.MAV_SEVERITY_WARNING
+SEVERITY_NOTICE = mavlink.MAV_SEVERITY_NOTICE
+SEVERITY_INFO = mavlink.MAV_SEVERITY_INFO
+SEVERITY_ERROR = mavlink.MAV_SEVERITY_ERROR
+# REQUEST_DATA_STREAM fallback: LOCAL_POSITION_NED and GLOBAL_POSITION_INT ride POSITION,
+# ATTITUDE rides EXTRA1, GPS_RAW_INT EXTENDED_STATUS, EKF_STATUS_REPORT EXTRA3 (ArduCopter
+# GCS_Mavlink.cpp). EXTENDED_SYS_STATE rides no stream on ArduCopter (interval only).
+DATA_STREAMS_FOR = {MSG_ID_LOCAL_POSITION_NED: mavlink.MAV_DATA_STREAM_POSITION,
+                    MSG_ID_GLOBAL_POSITION_INT: mavlink.MAV_DATA_STREAM_POSITION,
+                    MSG_ID_ATTITUDE: mavlink.MAV_DATA_STREAM_EXTRA1,
+                    MSG_ID_GPS_RAW_INT: mavlink.MAV_DATA_STREAM_EXTENDED_STATUS,
+                    MSG_ID_EKF_STATUS_REPORT: mavlink.MAV_DATA_STREAM_EXTRA3}

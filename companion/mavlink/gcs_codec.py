@@ -1,10 +1,10 @@
 """The ground station's view of an ArduPilot SITL: the messages `companion demo --autopilot` reads.
 
-The service never uses these (its messages are in codec.py); the demo's ground station needs the
+The service never uses these (its messages are in events.py and outbound.py); the demo's ground station needs the
 simulator's truth (SIMSTATE), the EKF's readiness (EKF_STATUS_REPORT, GPS_GLOBAL_ORIGIN) and the
 flight state (GLOBAL_POSITION_INT, LOCAL_POSITION_NED altitude, EXTENDED_SYS_STATE), so that the
 flight can be scored and checked independently of what the companion believed. Same rules as
-codec.py: field names and scalings stay here, events are frozen and in SI units.
+the rest of mavlink/: field names and scalings stay here, events are frozen and in SI units.
 """
 from __future__ import annotations
 
@@ -103,9 +103,3 @@ def setpoint_time_s(msg) -> float:
     """The vehicle time (time_boot_ms) a companion setpoint was decided at."""
     return msg.time_boot_ms / 1000.0
 
-
-def request_message(target_system: int, target_component: int,
-                    msg_id: int) -> mavlink.MAVLink_command_long_message:
-    return mavlink.MAVLink_command_long_message(
-        target_system, target_component, mavlink.MAV_CMD_REQUEST_MESSAGE, 0,
-        float(msg_id), 0, 0, 0, 0, 0, 0)

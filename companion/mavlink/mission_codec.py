@@ -1,5 +1,5 @@
 """The MAVLink mission protocol's messages <-> typed events and intents (the mission's part of
-codec.py: field names and scalings stay in mavlink/). Pure translation, no state.
+mavlink/: field names and scalings stay in mavlink/). Pure translation, no state.
 
 Scalings (MISSION_ITEM_INT): x, y are latitude/longitude in 1e-7 degrees in global frames and
 metres x 1e4 in local frames; z is metres. Mission type 0 (MAV_MISSION_TYPE_MISSION) only.

@@ -229,7 +229,7 @@ async def fly(gcs: GroundStation, files: AutopilotFiles, scenario: Scenario, spe
         now = asyncio.get_running_loop().time()
         if state.origin_ne_m is None and now - last_origin_request[0] > ORIGIN_REQUEST_S:
             last_origin_request[0] = now
-            gcs.link.send(gcs_codec.request_message(sysid, compid,
+            gcs.link.send(codec.request_message(sysid, compid,
                                                     dialect.MSG_ID_GPS_GLOBAL_ORIGIN))
         return state.ekf_ready and state.origin_ne_m is not None and state.local is not None
 

@@ -261,9 +261,9 @@ async def track_vehicle_time(link, samples: list) -> None:
     """(wall s, vehicle s) of every message with a time_boot_ms, until cancelled."""
     loop = asyncio.get_running_loop()
     while True:
-        t_ms = getattr((await link.inbox.get()).msg, "time_boot_ms", None)
-        if t_ms is not None:
-            samples.append((loop.time(), t_ms / 1000.0))
+        t_s = codec.vehicle_time_s((await link.inbox.get()).msg)
+        if t_s is not None:
+            samples.append((loop.time(), t_s))
 
 
 async def take_off(link, alt_m: float, children: list[Child], climb_timeout_s: float,

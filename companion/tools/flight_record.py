@@ -155,11 +155,11 @@ def companion_setpoints(tlog: Path, component_id: int) -> list[dict]:
     out, up_m, landed = [], None, None
     for record in TlogReader(tlog):
         msg = record.msg
-        if msg.get_srcComponent() == component_id and gcs_codec.is_setpoint(msg):
+        if codec.sender_component(msg) == component_id and gcs_codec.is_setpoint(msg):
             out.append({"t_s": gcs_codec.setpoint_time_s(msg), "up_m": up_m,
                         "landed_state": landed})
             continue
-        if msg.get_srcComponent() != codec.MAV_COMP_ID_AUTOPILOT1:
+        if codec.sender_component(msg) != codec.MAV_COMP_ID_AUTOPILOT1:
             continue
         event = gcs_codec.decode_gcs(msg)
         if isinstance(event, gcs_codec.LocalAltitude):

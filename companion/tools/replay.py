@@ -70,7 +70,7 @@ def replay_tlog(path: str | Path, config: CompanionConfig,
             if kind == "SET_POSITION_TARGET_LOCAL_NED":
                 result.recorded_keys.append(codec.setpoint_key(msg))
             elif kind == "ODOMETRY":
-                result.recorded_poses.append((msg.time_usec, msg.x, msg.y))
+                result.recorded_poses.append(codec.odometry_key(msg))
             continue
         result.inbound += 1
         for output in pipeline.handle(record.t_us / 1e6, codec.decode(msg)):

@@ -9,7 +9,7 @@ import pytest
 from companion.config.service import load_config
 from companion.core.estimation.slam_types import Observation
 from companion.core.perception.point_groups import group_points
-from companion.mavlink import codec
+from companion.mavlink import codec, obstacle_forms
 from companion.onboard.heights import ServiceHeights
 from companion.onboard.pipeline import Pipeline, snapshot
 
@@ -155,7 +155,7 @@ def test_a_point_with_a_non_finite_z_is_refused_and_counted(z):
     from pymavlink.dialects.v20 import ardupilotmega as mavlink
     msg = mavlink.MAVLink_obstacle_distance_3d_message(
         10_000, 0, mavlink.MAV_FRAME_BODY_FRD, 4, 20.0, 1.0, z, 0.2, 40.0)
-    frame = codec._obstacle_3d(msg, 1, 100)
+    frame = obstacle_forms._obstacle_3d(msg, 1, 100)
     assert frame.observations == () and frame.rejected
     feed = Feed3D(Pipeline(vertical_config(), GOAL), [], floor=False)
     feed.send(hb())
@@ -171,7 +171,7 @@ def test_a_finite_z_rides_on_the_observation():
     from pymavlink.dialects.v20 import ardupilotmega as mavlink
     msg = mavlink.MAVLink_obstacle_distance_3d_message(
         10_000, 0, mavlink.MAV_FRAME_BODY_FRD, 4, 20.0, 1.0, -3.5, 0.2, 40.0)
-    (obs,) = codec._obstacle_3d(msg, 1, 100).observations
+    (obs,) = obstacle_forms._obstacle_3d(msg, 1, 100).observations
     assert obs.top_down_m == obs.bottom_down_m == pytest.approx(-3.5)
 
 
