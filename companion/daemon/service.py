@@ -11,7 +11,8 @@ sending. Tasks, one job each:
              companion/onboard/health.py, a STATUSTEXT when it changes
   watchdog   logs vehicle-heartbeat loss; asks for streams again when odometry stays away or
              arrives slower than asked (bounded); reports suppressed STATUSTEXTs
-  streams    SET_MESSAGE_INTERVAL (acked, retried), else REQUEST_DATA_STREAM
+  streams    SET_MESSAGE_INTERVAL (acked, retried), else REQUEST_DATA_STREAM; the EKF origin
+             for a lat/lon goal (companion/daemon/streams.py)
   tlog       flush twice a second
   parameters write the parameter overlay after accepted PARAM_SETs (companion/daemon/param_overlay.py)
   stop       SIGINT/SIGTERM -> one stop setpoint if commanding -> ShutdownRequested
@@ -32,7 +33,6 @@ from pathlib import Path
 
 import yaml
 
-from companion.mavlink import dialect
 from companion.mavlink import codec, mission_codec, param_codec
 from companion.mavlink.link import MavlinkLink, open_link
 from companion.mavlink.tlog import TlogWriter
@@ -41,30 +41,21 @@ from companion.config.service import CompanionConfig, config_to_dict
 from companion.daemon.param_overlay import Overlay, write_overlay
 from companion.errors import ShutdownRequested
 from companion.daemon.lockstep import VehicleLinkClock, lockstep_config
+from companion.daemon.streams import WATCHDOG_INTERVAL_S, StreamRequests
 from companion.onboard import health
 from companion.onboard.parameters import ParamChange, ParamValue
 from companion.onboard.pipeline import Arrived, NavigatorStarted, Pipeline, StreamsWanted, snapshot
 from companion.tools.report import write_json
 from companion.onboard.safety.notices import NoticeLimiter
-from companion.onboard.stream_rates import StreamRateWatch
 from companion.view import feed
 
 log = logging.getLogger(__name__)
 
 TLOG_FLUSH_INTERVAL_S = 0.5
 TIMESYNC_FAST_S, TIMESYNC_FAST_COUNT, TIMESYNC_SLOW_S = 1.0, 16, 10.0
-WATCHDOG_INTERVAL_S = 0.2
 # The report keeps the latest hour of track at 10 Hz (about 4 MB); the daemon flies for longer.
 REPORT_TRACK_ROWS = 36_000
 PLACEHOLDER_SYSTEM_ID = 1        # our system id until the vehicle's is known (if not configured)
-STREAMS = ((dialect.MSG_ID_ATTITUDE, "attitude_rate_hz"),
-           (dialect.MSG_ID_LOCAL_POSITION_NED, "local_position_rate_hz"),
-           (dialect.MSG_ID_EXTENDED_SYS_STATE, "landed_state_rate_hz"),      # flight phases
-           (dialect.MSG_ID_GLOBAL_POSITION_INT, "global_position_rate_hz"),
-           (dialect.MSG_ID_GPS_RAW_INT, "gps_raw_rate_hz"),                # position fusion 'auto'
-           (dialect.MSG_ID_EKF_STATUS_REPORT, "ekf_status_rate_hz"))
-ODOMETRY_STREAMS = (dialect.MSG_ID_ATTITUDE, dialect.MSG_ID_LOCAL_POSITION_NED)
-GEO_REFERENCE_RETRY_S = 2.0      # a lat/lon goal: ask for GPS_GLOBAL_ORIGIN and HOME this often
 
 
 def describe_goal(goal) -> str:
@@ -97,18 +88,8 @@ class Service:
         self.pipeline = Pipeline(config, config.goal,
                                  record_track=report_path is not None or keep_track,
                                  track_limit=REPORT_TRACK_ROWS)
-        self.streams_wanted = asyncio.Event()
-        self.acks: asyncio.Queue[codec.CommandAck] = asyncio.Queue(maxsize=16)
+        self.streams = StreamRequests(config.streams, link, self.pipeline)
         self.stop = asyncio.Event()
-        self._odometry_seen = asyncio.Event()
-        streams = config.streams
-        # The odometry streams' rates are watched (what the estimate and the setpoints run on);
-        # the slow ones (landed state, GPS health) are asked for with them.
-        self.rates = StreamRateWatch({msg_id: getattr(streams, key) for msg_id, key in STREAMS
-                                      if msg_id in ODOMETRY_STREAMS},
-                                     streams.rate_check_s, streams.min_rate_fraction,
-                                     streams.max_reasserts)
-        self._rates_said = False
         self.notices = NoticeLimiter(config.safety.statustext_repeat_s,
                                      config.safety.statustext_per_s)
         # The limiter runs on vehicle time in every mode: off lock-step too the vehicle may run
@@ -121,7 +102,7 @@ class Service:
         if tlog is not None:
             link.on_sent = tlog.write if clock is None else \
                 (lambda _t_us, data: tlog.write(clock.now_us(), data))
-        link.on_connect = self.streams_wanted.set
+        link.on_connect = self.streams.wanted.set
 
     # ------------------------------------------------------------ tasks
     async def estimate(self) -> None:
@@ -156,20 +137,12 @@ class Service:
             self.tlog.write(t_us, codec.packet_bytes(received.msg))
         if self.clock is not None and self.clock.heartbeat_due():
             self._send_identity()
-        if isinstance(event, codec.CommandAck) and pipeline.vehicle == (
-                event.system_id, event.component_id) and not self.acks.full():
-            self.acks.put_nowait(event)
-        elif isinstance(event, codec.LocalPosition):
-            self._odometry_seen.set()
-        elif isinstance(event, codec.TimeSyncReply) and self._is_vehicle(event):
+        self.streams.on_event(event)
+        if isinstance(event, codec.TimeSyncReply) and self._is_vehicle(event):
             sample = pipeline.timesync.on_reply(event.tc1_ns, event.ts1_ns, time.time_ns())
             if sample is not None and pipeline.timesync.replies == 1:
                 log.info("TIMESYNC: vehicle clock = ours %+.6f s (round trip %.1f ms)",
                          sample.offset_ns * 1e-9, sample.round_trip_ns * 1e-6)
-        if isinstance(event, (codec.Attitude, codec.LocalPosition)) and pipeline.vehicle == (
-                event.system_id, event.component_id):
-            self.rates.on_message(dialect.MSG_ID_ATTITUDE if isinstance(event, codec.Attitude)
-                                  else dialect.MSG_ID_LOCAL_POSITION_NED)
         answered = False
         for output in pipeline.handle(t_us / 1e6, event):
             await self._dispatch(output)
@@ -194,7 +167,7 @@ class Service:
             link.send(mission_codec.encode(output))
         elif isinstance(output, StreamsWanted):
             log.info("asking for telemetry streams: %s", output.reason)
-            self.streams_wanted.set()
+            self.streams.wanted.set()
         elif isinstance(output, ParamValue):
             link.send(param_codec.param_value(output))
         elif isinstance(output, ParamChange):
@@ -259,34 +232,13 @@ class Service:
             log.debug("STATUSTEXT suppressed: %s", notice.text)
 
     def _check_rates(self) -> None:
+        """The watchdog's look at suppressed STATUSTEXTs and at the streams' rates."""
         text = self.notices.take_suppressed_report(self._notice_s())
         now_s = self.link.now_us() / 1e6
         if text is not None:
             log.warning("%s (STATUSTEXT limit)", text)
             self.link.send(codec.statustext(codec.Notice(codec.SEVERITY_INFO, text)))
-        if self.pipeline.vehicle is None or not self._odometry_seen.is_set():
-            return                        # request_streams is still asking
-        gave_up = set(self.rates.gave_up)
-        again = self.rates.check(now_s)
-        if again:
-            rates = self.rates.last_measured_hz
-            got = ", ".join(f"{m} at {rates[m]:.1f} Hz (asked {self.rates.asked_hz[m]:g})"
-                            for m in again)
-            if not self._rates_said:
-                # Once: what it got and why. A ground station or router on the same link
-                # (MAVProxy, Mission Planner, QGC: 4 Hz by default) sets the vehicle's stream
-                # rates with REQUEST_DATA_STREAM, and ArduPilot keeps one set per link.
-                log.warning("streams %s: another client on this link (a ground station or "
-                            "router) sets the vehicle's stream rates; asking again at most %d "
-                            "times, flying at the rate that comes", got,
-                            self.config.streams.max_reasserts)
-                self._rates_said = True
-            else:
-                log.debug("streams %s: asking again", got)
-            self.streams_wanted.set()
-        for msg_id in sorted(self.rates.gave_up - gave_up):
-            log.info("stream %d stays at %.1f Hz: not asked again; estimate and decisions run "
-                     "at that rate", msg_id, self.rates.last_measured_hz.get(msg_id, 0.0))
+        self.streams.check_rates(now_s)
 
     async def send_heartbeats(self) -> None:
         period_s = 1.0 / self.config.link.heartbeat_rate_hz
@@ -338,67 +290,6 @@ class Service:
         self._timesyncs_sent += 1
         self.link.send(codec.timesync_request(self.pipeline.timesync.request(time.time_ns())))
 
-    async def request_streams(self) -> None:
-        streams = self.config.streams
-        while True:
-            await self.streams_wanted.wait()
-            self.streams_wanted.clear()
-            if self.pipeline.vehicle is None:
-                continue                      # 'vehicle found' will ask again
-            self._odometry_seen.clear()
-            for msg_id, rate_key in STREAMS:
-                await self._request_stream(msg_id, getattr(streams, rate_key))
-            self.rates.restart(self.link.now_us() / 1e6)
-            try:
-                async with asyncio.timeout(streams.rerequest_after_s):
-                    await self._odometry_seen.wait()
-            except TimeoutError:
-                log.warning("no odometry %.1f s after asking: asking again",
-                            streams.rerequest_after_s)
-                self.streams_wanted.set()
-
-    async def _request_stream(self, msg_id: int, rate_hz: float) -> None:
-        streams = self.config.streams
-        sysid, compid = self.pipeline.vehicle
-        while not self.acks.empty():
-            self.acks.get_nowait()
-        for _ in range(streams.attempts):
-            self.link.send(codec.set_message_interval(sysid, compid, msg_id, rate_hz))
-            ack = await self._wait_for_ack(streams.ack_timeout_s)
-            if ack is not None and ack.accepted:
-                log.info("message %d at %.1f Hz: accepted", msg_id, rate_hz)
-                return
-            if ack is not None:
-                log.warning("SET_MESSAGE_INTERVAL %d refused (result %d)", msg_id, ack.result)
-                break
-        if msg_id not in codec.DATA_STREAMS_FOR:
-            log.warning("message %d: not granted and in no data stream; going without it", msg_id)
-            return
-        log.warning("message %d: falling back to REQUEST_DATA_STREAM", msg_id)
-        self.link.send(codec.request_data_stream(sysid, compid, msg_id, rate_hz))
-
-    async def _wait_for_ack(self, timeout_s: float) -> codec.CommandAck | None:
-        try:
-            async with asyncio.timeout(timeout_s):
-                while True:
-                    ack = await self.acks.get()
-                    if codec.is_set_message_interval_ack(ack):
-                        return ack
-        except TimeoutError:
-            return None
-
-    async def ask_geo_reference(self) -> None:
-        """A latitude/longitude goal needs the EKF origin (or HOME): ask until it is known.
-        ArduCopter sets its origin once the EKF has a position (30-40 s after boot in SITL)."""
-        while True:
-            if self.pipeline.vehicle is not None and self.pipeline.needs_geo_reference:
-                sysid, compid = self.pipeline.vehicle
-                for msg_id in (dialect.MSG_ID_GPS_GLOBAL_ORIGIN, dialect.MSG_ID_HOME_POSITION):
-                    self.link.send(codec.request_message(sysid, compid, msg_id))
-                await asyncio.sleep(GEO_REFERENCE_RETRY_S)
-            else:        # ask as soon as the vehicle is found (a lock-step flight is quick)
-                await asyncio.sleep(WATCHDOG_INTERVAL_S)
-
     async def flush_tlog(self) -> None:
         while True:
             await asyncio.sleep(TLOG_FLUSH_INTERVAL_S)
@@ -419,8 +310,8 @@ class Service:
         data = snapshot(self.pipeline)
         data["link"] = asdict(self.link.statistics())
         data["statustext_suppressed"] = self.notices.suppressed
-        data["stream_reasserts"] = self.rates.reasserts
-        data["stream_rates_hz"] = self.rates.last_measured_hz
+        data["stream_reasserts"] = self.streams.rates.reasserts
+        data["stream_rates_hz"] = self.streams.rates.last_measured_hz
         data["phases"] = [list(change) for change in self.pipeline.phase_changes]
         data["setpoints_refused"] = dict(self.pipeline.gate.refused)
         data["config"] = config_to_dict(self.pipeline.config)
@@ -478,9 +369,10 @@ async def run_service(config: CompanionConfig, url: str, tlog_path: str | Path |
                     tg.create_task(service.estimate(), name="estimate")
                     tg.create_task(service.send_heartbeats(), name="heartbeat")
                     tg.create_task(service.watch(), name="watchdog")
-                    tg.create_task(service.request_streams(), name="streams")
+                    tg.create_task(service.streams.run(), name="streams")
                     if config.goal.is_geographic or config.goal.mission or config.fly_to.enabled:
-                        tg.create_task(service.ask_geo_reference(), name="geo-reference")
+                        tg.create_task(service.streams.ask_geo_reference(),
+                                       name="geo-reference")
                     if tlog is not None:
                         tg.create_task(service.flush_tlog(), name="tlog")
                     if overlay is not None:

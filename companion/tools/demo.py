@@ -32,7 +32,7 @@ from companion.config.secrets import read_signing_key
 from companion.config.service import CompanionConfig, config_to_dict, GoalConfig, load_config
 from companion.errors import CompanionError
 from companion.config.paths import resolve_config
-from companion.daemon.service import STREAMS
+from companion.daemon.streams import STREAMS
 from companion.sim.simulation import perception_delay_s
 from companion.tools.demo_scoring import read_report, read_truth
 
