@@ -280,7 +280,7 @@ def capture_to_setpoint_s(tlog: Path) -> tuple[np.ndarray, np.ndarray, np.ndarra
     to setpoint s), and the clock offset (Unix s - stub s).
 
     A frame is the reports of one capture time; the pipeline decides on it when the first
-    message not of it arrives (pipeline._FrameAssembly); it is answered by the first
+    message not of it arrives (onboard/camera_frames.py FrameAssembly); it is answered by the first
     SET_POSITION_TARGET_LOCAL_NED sent after that, and every frame completed before that
     setpoint is answered by it (a throttled process reads a backlog before it sends). Counted
     from the first setpoint on (before it the companion is not commanding). The stub's clock

@@ -113,7 +113,7 @@ class FrameLatencies:
 
 def _frame_key(msg) -> tuple | None:
     """(system, component, time s) of an obstacle report: the pipeline's frame is the reports of
-    one camera with one time (pipeline._FrameAssembly.continued_by)."""
+    one camera with one time (onboard/camera_frames.py FrameAssembly.continued_by)."""
     kind = msg.get_type()
     if kind == "OBSTACLE_DISTANCE_3D":
         t_s = msg.time_boot_ms / 1000.0

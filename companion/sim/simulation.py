@@ -227,7 +227,7 @@ def run_once(scenario: Scenario, seed: int, strategy: str | None = None) -> RunO
         gamma = limit_turn(est_heading, command.heading_rad, vehicle.max_turn_rate_rad_s, dt)
         before = truth.pose[:2].copy()
         if copter:
-            # As the service does (pipeline._setpoint): the turn-limited velocity direction and
+            # As the service does (commander.setpoint): the turn-limited velocity direction and
             # nose (the nose apart only when looking at a mover) in the autopilot's yaw frame.
             shaped = shape_setpoint(est_heading, shaped, command, vehicle.max_turn_rate_rad_s,
                                     dt, math.inf)

@@ -74,10 +74,10 @@ def primed(recording):
     for t_s, msg in messages[:cut]:
         pipeline.handle(t_s, codec.decode(msg))
     # stop where no position waits for its attitude, so injected cases start from a clean state
-    while pipeline._held_position is not None and cut < len(messages) - 1:
+    while pipeline.attitude.held is not None and cut < len(messages) - 1:
         pipeline.handle(messages[cut][0], codec.decode(messages[cut][1]))
         cut += 1
-    assert pipeline._held_position is None
+    assert pipeline.attitude.held is None
     assert pipeline.navigator is not None and pipeline.navigator.slam.landmark_count >= 1
     assert pipeline.commanding_allowed(messages[cut - 1][0])
     return pipeline, [(t, bytes(m.get_msgbuf())) for t, m in messages[cut:]]

@@ -66,5 +66,5 @@ def test_the_pipeline_maps_a_unix_stamped_frame_by_timesync_once_it_has_one():
     ts1 = pipeline.timesync.request(int(unix_s * S))
     pipeline.timesync.on_reply(int(100.0 * S), ts1, int(unix_s * S) + 2_000_000)
     frame = codec.ObstacleFrame(1, 100, unix_s + 0.25, ())
-    mapped = pipeline._in_vehicle_time(frame, [])
+    mapped = pipeline.frames.in_vehicle_time(frame, [])
     assert abs(mapped.t_s - 100.249) < 1e-6 and pipeline.wants_timesync

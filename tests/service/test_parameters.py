@@ -146,7 +146,7 @@ def test_a_live_set_waits_for_the_end_of_a_camera_frame_then_guidance_follows():
     assert any(isinstance(o, ParamValue) for o in out)
     assert p.navigator.params.safety_distance_m == before      # queued, not mid-frame
     feed.camera([Observation(40.0, -0.2, 6)])          # the same frame continues: still queued
-    assert p.navigator.params.safety_distance_m == before and p._frame is not None
+    assert p.navigator.params.safety_distance_m == before and p.frames.assembly is not None
     feed.step()                                        # the frame's decision, then the safe point
     assert p.navigator.params.safety_distance_m == before + 2.0
     assert p.config.avoidance.safety_distance_m == before + 2.0

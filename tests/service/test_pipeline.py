@@ -263,13 +263,13 @@ def test_speed_is_clamped_to_the_configured_limit():
     fast = dataclasses.replace(base, commanding=dataclasses.replace(
         base.commanding, cruise_speed_mps=8.0, max_speed_mps=8.0))
     p = Pipeline(fast, GOAL)
-    # the guidance asks for at most cruise; force a faster command through the private helper
+    # the guidance asks for at most cruise; force a faster command through the commander
     feed = Feed(p)
     feed.send(hb())
     feed.step()
-    sp = p._setpoint(feed.t_s, GuidanceCommand(50.0, 0.0, "goal"))
+    sp = p.commander.setpoint(feed.t_s, GuidanceCommand(50.0, 0.0, "goal"))
     assert math.hypot(sp.vel_north_mps, sp.vel_east_mps) == pytest.approx(8.0)
-    assert not p.gate.check(p._setpoint(feed.t_s, GuidanceCommand(math.nan, 0.0, "goal"))).passed
+    assert not p.gate.check(p.commander.setpoint(feed.t_s, GuidanceCommand(math.nan, 0.0, "goal"))).passed
 
 
 def test_position_waits_for_the_attitude_of_its_own_time():

@@ -135,9 +135,9 @@ def test_nothing_bypasses_the_gate_even_the_hold_or_the_stop():
     feed = started()
     for _ in range(3):
         feed.step()
-    feed.p._ap_yaw_rad = math.nan                # whatever the state, NaN never leaves
+    feed.p.ap_yaw_rad = math.nan                # whatever the state, NaN never leaves
     out = []
-    feed.p._safe(feed.link_s, feed.t_s, "test", out)
+    feed.p.commander.safe(feed.link_s, feed.t_s, "test", out)
     out += feed.p.stop_setpoint(feed.link_s)
     assert setpoints(out) == []
     assert feed.p.gate.refused["yaw_rad not finite"] == 2
