@@ -8,6 +8,7 @@ from companion.config.loader import require
 PLAUSIBLE_SPEED_MPS = 50.0        # faster is no multicopter (the pipeline refuses such odometry)
 PLAUSIBLE_ACCEL_MPS2 = 20.0      # 2 g sideways: far beyond any multicopter's ANGLE_MAX
 PLAUSIBLE_DELAY_S = 10.0
+PLAUSIBLE_JERK_MPS3 = 100.0       # PSC_JERK_XY's range is 1 to 20 m/s/s/s
 MAX_STEREO_K_PER_M = 1.0     # sigma_r = k r^2: at k = 1 /m the range is noise beyond 1 m
 
 

@@ -11,7 +11,8 @@ from pathlib import Path
 from typing import Literal
 
 
-from companion.config.checks import PLAUSIBLE_ACCEL_MPS2, PLAUSIBLE_DELAY_S, PLAUSIBLE_SPEED_MPS, require_positive
+from companion.config.checks import (PLAUSIBLE_ACCEL_MPS2, PLAUSIBLE_DELAY_S, PLAUSIBLE_JERK_MPS3,
+                                     PLAUSIBLE_SPEED_MPS, require_positive)
 from companion.config.loader import FieldError, build, read_yaml, require
 from companion.config.sections import AvoidanceConfig, EstimatorConfig
 from companion.config.scenario import PerceptionConfig
@@ -95,6 +96,14 @@ class CommandingConfig:
     # What the velocity choice assumes the vehicle flies (core/avoidance/arc.py): ArduCopter's GUIDED
     # shapes a velocity setpoint with WPNAV_ACCEL (default 250 cm/s/s).
     max_accel_mps2: float = 2.5
+    # ... and how fast that acceleration itself may change (core/avoidance/jerk_shaping.py):
+    # ArduCopter's PSC_JERK_XY (default 5 m/s/s/s; AC_PosControl shapes a GUIDED velocity setpoint
+    # with it, a 0.5 s lag at WPNAV_ACCEL 250). None: the velocity changes within max_accel at once.
+    max_jerk_mps3: float | None = None
+    # Each setpoint's yaw turns on from the last one's, at most this far (at max_turn_rate) ahead of
+    # the nose now (core/avoidance/guidance.py shape_setpoint): ArduCopter's yaw lags its target
+    # about 0.3 s, and turned from the nose now a 30 deg/s turn flew at 9 deg/s. None: from the nose.
+    yaw_lead_s: float | None = None
     # How long a new obstacle may stay out of the decision (tentative until confirmed: the
     # lifecycle's confirm_window frames of the camera, 5 at 5 Hz): flown before braking starts.
     perception_delay_s: float = 1.0
@@ -105,6 +114,15 @@ class CommandingConfig:
             require_positive(key, getattr(self, key))
         require(self.max_accel_mps2 <= PLAUSIBLE_ACCEL_MPS2, "max_accel_mps2", self.max_accel_mps2,
                 f"a multicopter's horizontal acceleration <= {PLAUSIBLE_ACCEL_MPS2:g} m/s/s")
+        if self.max_jerk_mps3 is not None:
+            require(isinstance(self.max_jerk_mps3, (int, float)) and not isinstance(
+                self.max_jerk_mps3, bool) and 0.0 < self.max_jerk_mps3 <= PLAUSIBLE_JERK_MPS3,
+                "max_jerk_mps3", self.max_jerk_mps3,
+                f"null or a jerk in (0, {PLAUSIBLE_JERK_MPS3:g}] m/s/s/s (ArduCopter PSC_JERK_XY)")
+        if self.yaw_lead_s is not None:
+            require(isinstance(self.yaw_lead_s, (int, float)) and not isinstance(
+                self.yaw_lead_s, bool) and 0.0 <= self.yaw_lead_s <= 2.0, "yaw_lead_s",
+                self.yaw_lead_s, "null or a time in [0, 2] s")
         require(0.0 <= self.perception_delay_s <= PLAUSIBLE_DELAY_S, "perception_delay_s",
                 self.perception_delay_s, f"a delay in [0, {PLAUSIBLE_DELAY_S:g}] s")
         require(self.max_speed_mps <= PLAUSIBLE_SPEED_MPS, "max_speed_mps", self.max_speed_mps,
@@ -313,7 +331,8 @@ class CompanionConfig:
         """What the velocity choice assumes the vehicle can fly: ArduCopter in GUIDED, a
         multicopter whose velocity turns within its acceleration limit."""
         return VehicleLimits(self.commanding.max_turn_rate_rad_s, self.commanding.max_accel_mps2,
-                             lateral_accel_limited=True)
+                             lateral_accel_limited=True,
+                             max_jerk_mps3=self.commanding.max_jerk_mps3)
 
     def goal_look_params(self) -> GoalLookParams | None:
         """avoidance.goal_look_deg (core/avoidance/look_at.py) with the service's camera; None: off."""

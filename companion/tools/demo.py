@@ -90,6 +90,8 @@ def demo_config(scenario: Scenario, base_path: str = "config/companion.yaml",
         max_speed_mps=max(base.commanding.max_speed_mps, scenario.vehicle.speed_mps),
         max_turn_rate_deg_s=scenario.vehicle.max_turn_rate_deg_s,
         max_accel_mps2=scenario.vehicle.max_accel_mps2,
+        max_jerk_mps3=None,          # the stub's truth changes its velocity within max_accel at once
+        yaw_lead_s=None,             # ... and its nose reaches a setpoint's yaw within the step
         perception_delay_s=perception_delay_s(estimator, scenario))
     return dataclasses.replace(base, estimator=estimator,
                                avoidance=scenario.avoidance, commanding=commanding,

@@ -30,6 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from companion.core.avoidance.jerk_shaping import extra_brake_steps, fly_copter_shaped
 from companion.core.geometry import TWO_PI
 
 STEP_S = 0.25                    # the roll-out's time step
@@ -49,13 +50,16 @@ class VehicleLimits:
     max_turn_rate_rad_s: float
     max_accel_mps2: float
     lateral_accel_limited: bool = False      # a multicopter's velocity turns within max_accel
+    max_jerk_mps3: float | None = None       # a multicopter's velocity shaped as ArduCopter's
+                                             # (jerk_shaping.py); None: within max_accel at once
 
     def motion(self, speed_mps: float, course_rad: float,
                nose_rad: float | None = None) -> "Motion":
         """``nose_rad``: the yaw now (a multicopter's; see Motion.nose_rad)."""
         copter = self.lateral_accel_limited
         return Motion(self.max_turn_rate_rad_s, self.max_accel_mps2, speed_mps, course_rad,
-                      self.max_accel_mps2 if copter else None, nose_rad if copter else None)
+                      self.max_accel_mps2 if copter else None, nose_rad if copter else None,
+                      self.max_jerk_mps3 if copter else None)
 
 
 @dataclass(frozen=True)
@@ -68,6 +72,8 @@ class Motion:
     max_lateral_accel_mps2: float | None = None   # None: the unicycle (turn rate only)
     nose_rad: float | None = None            # a multicopter's yaw now: with a lateral limit, the
                                              # roll-out flies its velocity setpoint (_fly_copter)
+    max_jerk_mps3: float | None = None       # with nose_rad: the velocity follows the setpoint
+                                             # jerk-limited, as ArduCopter's (jerk_shaping.py)
 
     def turn_rate_at(self, speed_mps: np.ndarray) -> np.ndarray:
         """The fastest turn of the velocity's direction at each speed (rad/s)."""
@@ -97,6 +103,13 @@ def fly_out(start_ne_m: np.ndarray, motion: Motion, headings_rad: np.ndarray,
     cruise_steps = int(math.ceil(horizon_s / STEP_S))
     start = np.asarray(start_ne_m, dtype=float)
     times = STEP_S * np.arange(1, steps + 1)
+    if motion.max_lateral_accel_mps2 is not None and motion.nose_rad is not None \
+            and motion.max_jerk_mps3 is not None:
+        steps += extra_brake_steps(motion.max_accel_mps2, motion.max_jerk_mps3, STEP_S)
+        times = STEP_S * np.arange(1, steps + 1)
+        positions, speeds = fly_copter_shaped(start, motion, headings, commanded, steps,
+                                              cruise_steps, fov_rad, STEP_S)
+        return Rollout(times, positions, speeds)
     if motion.max_lateral_accel_mps2 is not None and motion.nose_rad is not None:
         positions, speeds = _fly_copter(start, motion, headings, commanded, steps, cruise_steps,
                                         fov_rad)
