@@ -12,10 +12,10 @@ ArduCopter does not move its velocity toward a new setpoint at the acceleration 
 With GUIDED's limits (WPNAV_ACCEL 250 cm/s/s, PSC_JERK_XY 5 m/s/s/s: neither set in
 copter-4.6.parm, so the defaults) KPa is 2/s: the velocity follows the setpoint like a first-order
 lag of 0.5 s, and the acceleration takes 0.5 s to reach its limit. Measured on ArduCopter 4.6 SITL
-(the ceiling flight's tlog, /tmp figures in NOTES-ardupilot.md): this model, started from the
-vehicle's velocity, reproduces LOCAL_POSITION_NED's velocity from the sent setpoints within
-0.12 m/s RMS over 60 s of flight (0.48 m/s for the unshaped step); the same setpoints flown
-unshaped round the wall's end 2.6 m wider than ArduCopter did.
+(tests/core/data/arducopter_guided_velocity.csv, from the service's tlog of the ceiling flight):
+this model, started from the vehicle's velocity, reproduces LOCAL_POSITION_NED's velocity from
+the sent setpoints within 0.14 m/s RMS over 62 s of flight (0.47 m/s for the unshaped step); the
+same setpoints flown unshaped round the wall's end 2.6 m wider than ArduCopter did.
 
 ``shaped_step`` is one roll-out step on (J,) arrays; the acceleration starts at zero (the
 vehicle's own is not measured), which the 0.5 s ramp then dominates. Pure numpy, SI units.
