@@ -271,6 +271,13 @@ def shape_setpoint(yaw_now_rad: float, last: ShapedSetpoint | None, command: Gui
         course, apart = wrap_angle(command.heading_rad), False
     target = course if command.yaw_rad is None else command.yaw_rad
     yaw = wrap_angle(yaw_now_rad + limit_turn(yaw_now_rad, target, max_turn_rate_rad_s, dt_s))
+    if yaw_lead_s is not None and last is not None:
+        # the lead's clamp must not make the yaw (nor the course it leads) jump between
+        # setpoints: each stays within one step of the last one's
+        yaw = wrap_angle(last.yaw_rad + limit_turn(last.yaw_rad, yaw, max_turn_rate_rad_s, dt_s))
+        if not command.free_course:
+            course = wrap_angle(last.course_rad + limit_turn(last.course_rad, course,
+                                                             max_turn_rate_rad_s, dt_s))
     speed = command.speed_mps if not math.isfinite(command.speed_mps) \
         else min(max(command.speed_mps, 0.0), max_speed_mps)
     return ShapedSetpoint(course, speed, yaw, apart)     # a NaN speed stays NaN: the gate refuses it
