@@ -49,14 +49,16 @@ def test_the_service_navigator_gets_the_configured_limits_and_camera():
     base = config(require_camera=False)
     tuned = dataclasses.replace(
         base, commanding=dataclasses.replace(base.commanding, max_turn_rate_deg_s=45.0,
-                                             max_accel_mps2=1.5, perception_delay_s=0.4),
+                                             max_accel_mps2=1.5, perception_delay_s=0.4,
+                                             max_jerk_mps3=7.0),
         estimator=dataclasses.replace(base.estimator, sensor_fov_deg=70.0,
                                       sensor_max_range_m=25.0))
     feed = Feed(Pipeline(tuned, GOAL))
     feed.send(hb())
     feed.step()
     nav = feed.p.navigator
-    assert nav.limits == VehicleLimits(math.radians(45.0), 1.5, lateral_accel_limited=True)
+    assert nav.limits == VehicleLimits(math.radians(45.0), 1.5, lateral_accel_limited=True,
+                                       max_jerk_mps3=7.0)
     assert nav.union.sensor_range_m == 25.0 and nav.union.perception_delay_s == 0.4
     assert nav.union.fov_rad == pytest.approx(math.radians(70.0))
     assert nav.look_at is None                       # off unless asked for
