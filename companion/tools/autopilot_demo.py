@@ -105,23 +105,12 @@ def sitl_home(scenario: Scenario) -> sitl.Home:
     return sitl.Home(lat, lon, origin.alt_m, start.yaw_deg % 360.0)
 
 
-# ArduCopter shapes a GUIDED velocity setpoint jerk-limited (core/avoidance/jerk_shaping.py):
-# PSC_JERK_XY, default 5 m/s/s/s (AC_PosControl.cpp), not set by copter-4.6.parm.
-ARDUCOPTER_JERK_XY_MPS3 = 5.0
-# Its yaw lags a GUIDED yaw target by about 0.3 s (ATTITUDE vs the setpoints' yaw, same tlog):
-# the setpoints' yaw may lead the nose by this much of the turn rate (guidance.shape_setpoint).
-ARDUCOPTER_YAW_LEAD_S = 0.5
-
-
 def service_config(scenario: Scenario, takeoff_alt_m: float):
     """The stub demo's service settings, with the goal as latitude/longitude (the service turns
     it into metres with the EKF origin it asks the autopilot for, as an operator's geo goal) and
     the takeoff altitude the ground station will send."""
     config = demo_config(scenario)
-    config = dataclasses.replace(config, estimator=vehicle_noise_of_the_autopilot(config.estimator),
-                                 commanding=dataclasses.replace(
-                                     config.commanding, max_jerk_mps3=ARDUCOPTER_JERK_XY_MPS3,
-                                     yaw_lead_s=ARDUCOPTER_YAW_LEAD_S))
+    config = dataclasses.replace(config, estimator=vehicle_noise_of_the_autopilot(config.estimator))
     origin, goal = scenario.world.origin, scenario.world.goal
     lat_deg, lon_deg = to_lat_lon_deg(origin.lat_deg, origin.lon_deg, goal.north_m, goal.east_m)
     return dataclasses.replace(
