@@ -14,7 +14,7 @@ from companion.core.avoidance.guidance import GuidanceParams
 from companion.core.avoidance.union import UnionParams
 from companion.core.estimation.movers import MoverParams
 from companion.core.estimation.slam_types import AssociationGates, SlamNoise
-from companion.core.navigator import Navigator
+from companion.core.navigation.navigator import Navigator
 from companion.errors import ConfigError
 
 NOISE = SlamNoise(0.3, math.radians(0.02), 0.1, 0.1, math.radians(0.01))
