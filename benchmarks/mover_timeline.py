@@ -144,8 +144,9 @@ def main() -> int:
                    "scenario's own world, e.g. a file benchmarks/heldout_headon.py wrote)")
     p.add_argument("--seed", type=int, required=True)
     p.add_argument("--every", type=int, default=2, help="print every N-th decision")
+    p.add_argument("--speed-mps", type=float, help="cruise speed, as companion simulate's")
     args = p.parse_args()
-    scenario = load_scenario(args.scenario)
+    scenario = simulation.with_speed(load_scenario(args.scenario), args.speed_mps)
     world = random_world(scenario, args.random_worlds, args.seed) if args.random_worlds \
         else scenario
     report(timeline(world, args.seed), args.every)
