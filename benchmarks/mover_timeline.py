@@ -2,6 +2,7 @@
 
     python benchmarks/mover_timeline.py --scenario config/scenarios/copter.yaml \
         --random-worlds head-on --seed 35 [--every 2]
+    python benchmarks/mover_timeline.py --scenario /tmp/heldout-headon/heldout-ids-3.yaml --seed 7003
 
 Flies one seeded run exactly as ``companion simulate`` does (simulation.run_once, same seed),
 watching from outside: the navigator's decide and the camera's frames are wrapped, nothing else
@@ -139,11 +140,15 @@ def report(result: dict, every: int, out=sys.stdout) -> None:
 def main() -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--scenario", default="config/scenarios/copter.yaml")
-    p.add_argument("--random-worlds", required=True)
+    p.add_argument("--random-worlds", help="fly this kind's world of the seed (default: the "
+                   "scenario's own world, e.g. a file benchmarks/heldout_headon.py wrote)")
     p.add_argument("--seed", type=int, required=True)
     p.add_argument("--every", type=int, default=2, help="print every N-th decision")
+    p.add_argument("--speed-mps", type=float, help="cruise speed, as companion simulate's")
     args = p.parse_args()
-    world = random_world(load_scenario(args.scenario), args.random_worlds, args.seed)
+    scenario = simulation.with_speed(load_scenario(args.scenario), args.speed_mps)
+    world = random_world(scenario, args.random_worlds, args.seed) if args.random_worlds \
+        else scenario
     report(timeline(world, args.seed), args.every)
     return 0
 
