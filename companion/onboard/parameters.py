@@ -13,7 +13,7 @@ overlay file goes through ``config_loader.build`` itself, :func:`apply_values`).
 in force and a STATUSTEXT saying why, and is counted by kind.
 
 Live or at the next start. A *live* parameter changes the running config at the next safe point
-(Pipeline.queue_config: a message boundary with no camera frame being assembled, never inside a
+(onboard/param_requests.py ParamRequests queues it; Pipeline applies it at a message boundary with no camera frame being assembled, never inside a
 decision); the others are stored (the overlay, the PARAM_VALUE) and take effect when the
 companion starts again, because the navigator (strategy, goal look, the velocity choice's vehicle
 limits) or a safety part (the setpoint gate's speed limit, the camera liveness) is built once.

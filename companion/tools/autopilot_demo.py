@@ -24,6 +24,10 @@ says).
 
 Truth: SITL's SIMSTATE, the simulated vehicle itself (not the EKF's estimate); see
 flight_record.py.
+
+Why over 400 lines: the four processes' start, the ground station's script and the kill-and-
+restart variant are one sequence with one set of handles to stop; the SITL process itself, the
+scoring and the files are already apart (ardupilot_sitl.py, demo_scoring.py, demo.py).
 """
 from __future__ import annotations
 

@@ -28,7 +28,8 @@ from companion.config.sections import AvoidanceConfig
 from companion.config.loader import FieldError
 from companion.core.navigation.decider import STRATEGIES
 from companion.errors import CompanionError
-from companion.sim.simulation import aggregate_summaries, run_once
+from companion.sim.aggregate import aggregate_summaries
+from companion.sim.simulation import run_once
 from companion.sim.worlds import random_world
 
 log = logging.getLogger(__name__)

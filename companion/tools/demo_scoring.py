@@ -15,7 +15,8 @@ import numpy as np
 from companion.config.scenario import Scenario
 from companion.core import shapes
 from companion.core.geometry import wrap_angle
-from companion.sim.simulation import ARRIVAL_ALLOWANCE_M, aggregate_summaries
+from companion.sim.aggregate import aggregate_summaries
+from companion.sim.simulation import ARRIVAL_ALLOWANCE_M
 from companion.tools import clearance3d
 
 

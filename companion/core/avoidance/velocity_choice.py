@@ -15,6 +15,10 @@ predicted positions with a radius that grows with their velocity's uncertainty:
 
 The obstacle reported as urgent is, among those the goal heading's path would violate, the one
 whose closest approach comes first (time to closest approach ranks them).
+
+Why over 400 lines: the three steps above are one decision over one candidate set: they share
+the roll-out, the clearance measure and the scoring, and each later step reads what the earlier
+one found; split apart, a reader would follow one choice through three files.
 """
 from __future__ import annotations
 
