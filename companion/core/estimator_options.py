@@ -53,6 +53,11 @@ class EstimatorOptions:
     yaw_bias_tau_s: float = 600.0
     velocity_in_yaw_frame: bool = False     # velocity_ned: see EkfSlam.predict_velocity
     archive: ArchiveParams | None = None   # the bounded map (core/estimation/map_archive.py); None: off
+    new_beside_tentative: bool = False    # an id-less observation that only came near a tentative
+                                          # landmark no other observation of the frame took (the
+                                          # gate's grey zone) starts a new landmark instead of
+                                          # being dropped (forests: a misplaced tentative trunk
+                                          # swallowed every sighting of its neighbour; docs/forest.md)
 
     def yaw_fix_sigma_rad(self, dt_s: float | None) -> float:
         """The sigma to fuse one autopilot yaw sample with, ``dt_s`` after the last one (None:

@@ -98,3 +98,34 @@ def test_off_without_the_key():
     command = guide_along_path(_inputs(wall), params,
                                UnionParams(lookahead_s=3.0, fov_rad=math.radians(87.0)))
     assert command.mode != "path"
+
+
+def _row(gap_east_m: float, spacing_m: float, north_m: float = 10.0) -> np.ndarray:
+    """Posts 1 m apart across the whole grid at ``north_m`` but two ``spacing_m`` apart either
+    side of ``gap_east_m``."""
+    half = 0.5 * spacing_m
+    posts = [[north_m, e] for e in np.arange(-30.0, 30.5, 1.0) if abs(e - gap_east_m) > half + 0.5]
+    return np.array(posts + [[north_m, gap_east_m - half], [north_m, gap_east_m + half]])
+
+
+def test_a_tight_gap_is_taken_when_no_wider_one_leads_on_and_its_margin_is_kept():
+    # the gap's posts 2 x (d + 0.15) apart: closed at d + margin_m (0.3), open at the tight floor;
+    # 6 m ahead, within the first leg's reach, whose margin is then the gap's
+    row = _row(4.0, 2.0 * (D + 0.15), north_m=6.0)
+    radii = np.full(len(row), D)
+    goal = np.array([30.0, 0.0])
+    plan = plan_path(np.zeros(2), goal, row, radii)
+    assert plan.found
+    crossing = plan.points_ne_m[np.argmin(np.abs(plan.points_ne_m[:, 0] - 6.0))]
+    assert abs(crossing[1] - 4.0) < 0.6
+    assert PathParams().tight_floor_m <= plan.margin_m < PathParams().margin_m
+    assert not plan_path(np.zeros(2), goal, row, radii, PathParams(tight_floor_m=None)).found
+
+
+def test_the_goal_beyond_the_grid_is_not_reached_by_backing_out_of_it():
+    # a closed row ahead: leaving the grid behind (8 m back, then 108 m) is the cheapest way to
+    # the goal by the edge's straight line, but the way on is sought from edges ahead first
+    row = np.array([[10.0, e] for e in np.arange(-30.0, 30.5, 1.0)])
+    plan = plan_path(np.zeros(2), np.array([100.0, 0.0]), row, np.full(len(row), D))
+    assert plan.found
+    assert plan.points_ne_m[-1][0] >= 0.0

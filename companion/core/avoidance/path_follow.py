@@ -67,7 +67,8 @@ def guide_with_plan(inputs: GuidanceInputs, params: GuidanceParams,
     if union.sensor_range_m is not None:
         cruise = min(cruise, sensed_speed_limit(union.sensor_range_m, params.safety_distance_m,
                                                 motion.max_accel_mps2, union.perception_delay_s))
-    chosen = _along(pose, plan.heading_rad, cruise, obstacles, radii, params, union, inputs)
+    chosen = _along(pose, plan.heading_rad, cruise, obstacles, radii, params, union, inputs,
+                    min(union.path.hold_m, plan.margin_m))
     if chosen is not None:
         return chosen, plan
     leg = np.array([math.cos(plan.heading_rad), math.sin(plan.heading_rad)])
@@ -77,9 +78,10 @@ def guide_with_plan(inputs: GuidanceInputs, params: GuidanceParams,
 
 def _along(pose: np.ndarray, heading_rad: float, cruise: float, obstacles: np.ndarray,
            radii: np.ndarray, params: GuidanceParams, union: UnionParams,
-           inputs: GuidanceInputs) -> GuidanceCommand | None:
-    """The fastest command near the leg's heading whose roll-out keeps every margin (the leg's
-    heading first at each speed), else a turn in place toward it if stopping keeps d, else None."""
+           inputs: GuidanceInputs, hold_m: float) -> GuidanceCommand | None:
+    """The fastest command near the leg's heading whose roll-out keeps every margin (d +
+    ``hold_m``: hold_m, or less if the path was searched with less; the leg's heading first at
+    each speed), else a turn in place toward it if stopping keeps d, else None."""
     motion, seen = inputs.motion, inputs.seen
     velocities, growth = inputs.velocities, inputs.growth_mps
     if velocities is not None and not np.any(velocities != 0.0):
@@ -88,7 +90,7 @@ def _along(pose: np.ndarray, heading_rad: float, cruise: float, obstacles: np.nd
     # inside the margin already (a trunk seen late): the path out need not gain it at once
     # (clearance() counts a circle it is inside by what the path loses beyond that)
     now = float(np.min(np.hypot(*(obstacles - position).T) - radii))
-    need = min(union.path.hold_m, max(now, 0.0))
+    need = min(hold_m, max(now, 0.0))
     headings = np.array([heading_rad + o for o in OFFSETS_RAD])
     headings = np.arctan2(np.sin(headings), np.cos(headings))
     wide = np.array([heading_rad + o for o in WIDE_OFFSETS_RAD])

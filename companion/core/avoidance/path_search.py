@@ -23,6 +23,14 @@ obstacles to the goal, and the vehicle flies its first leg.
 - The first leg: the farthest point of the path, at most ``carrot_m`` along it, that the vehicle
   sees in a straight line with every sample at least the free clearance; its direction is the
   heading to fly.
+- Tight gaps, and not back out (forest-dense, docs/forest.md): cells keeping only
+  ``tight_floor_m`` (< margin_m) are free too, their moves costed up to ``tight_weight`` more;
+  the clearance the path keeps over its first leg (``PlannedPath.margin_m``) is what the first
+  leg and the follower's roll-out must keep then. Beyond the grid, the goal is reached first
+  only from edge cells not behind the vehicle (unmapped space is free, behind it too, and in a
+  dense forest every cell ahead is costed by the comfort band: the cheapest "path" left the
+  grid behind the vehicle, which flew back out of the forest and in again for 200 s); no such
+  path: from every edge cell, as before (a dead end is left the way it was entered).
 
 Pure numpy/scipy; positions north/east metres, headings LOCAL_NED yaw (rad).
 """
@@ -56,6 +64,10 @@ class PathParams:
                                   # the path keeps to the side it chose while the map shifts
     escape_m: float = 1.5         # within this of a vehicle inside the margin, cells as deep
                                   # as it may be crossed (the way out)
+    tight_floor_m: float | None = 0.1   # cells keeping d + this (< margin_m) are free too, at
+    tight_weight: float = 3.0     # a cost: their moves' length times 1 + up to this more (None:
+                                  # free only at margin_m). forest-dense's gaps: 1.62-1.76 m
+                                  # at best from the trees' centres (seeds 0-9), d + 0.3 = 1.8 m
     carrot_m: float = 8.0         # the first leg is at most this long (along the path)
     hold_m: float = 0.3           # path_follow.py: ... and must keep d + this (the flight's
                                   # tracking error, a trunk at the view's edge seen late)
@@ -74,6 +86,8 @@ class PlannedPath:
     heading_rad: float | None
     length_m: float
     cost_m: float
+    margin_m: float = 0.0         # the clearance it keeps over its first leg (margin_m, or
+                                  # less through tight cells; the follower keeps as much)
 
 
 def clearance_at(points_ne_m: np.ndarray, obstacles: np.ndarray, radii: np.ndarray) -> np.ndarray:
@@ -111,6 +125,26 @@ def plan_path(start_ne_m: np.ndarray, goal_ne_m: np.ndarray, obstacles: np.ndarr
     """The cheapest grid path from ``start_ne_m`` toward ``goal_ne_m`` around the ``obstacles``
     (n, 2) with safety radii ``radii`` (n,); see the module docstring. ``previous_heading_rad``:
     the last decision's heading, which moves near the vehicle are charged for turning from."""
+    floor = params.margin_m if params.tight_floor_m is None else params.tight_floor_m
+    plan = _search(start_ne_m, goal_ne_m, obstacles, radii, params, previous_heading_rad, floor,
+                   ahead_only=not goal_inside_grid(start_ne_m, goal_ne_m, params))
+    if plan.found or goal_inside_grid(start_ne_m, goal_ne_m, params):
+        return plan
+    return _search(start_ne_m, goal_ne_m, obstacles, radii, params, previous_heading_rad, floor,
+                   ahead_only=False)
+
+
+def goal_inside_grid(start_ne_m: np.ndarray, goal_ne_m: np.ndarray, params: PathParams) -> bool:
+    """Whether the grid reaches the goal (else the goal is reached from the grid's edge)."""
+    return float(np.hypot(*(np.asarray(goal_ne_m, dtype=float)
+                            - np.asarray(start_ne_m, dtype=float)))) <= params.ahead_m
+
+
+def _search(start_ne_m: np.ndarray, goal_ne_m: np.ndarray, obstacles: np.ndarray,
+            radii: np.ndarray, params: PathParams, previous_heading_rad: float | None,
+            need: float, ahead_only: bool) -> PlannedPath:
+    """plan_path with free cells keeping ``need`` (a margin) of clearance; ``ahead_only``: the
+    grid's edge leads to the goal only from cells not behind the vehicle."""
     start = np.asarray(start_ne_m, dtype=float)
     goal = np.asarray(goal_ne_m, dtype=float)
     to_goal = goal - start
@@ -135,7 +169,6 @@ def plan_path(start_ne_m: np.ndarray, goal_ne_m: np.ndarray, obstacles: np.ndarr
     clear = _clearance_grid(us, vs, (obstacles - start) @ axis_u, (obstacles - start) @ axis_v,
                             radii, params.margin_m + params.comfort_m + cell).ravel()
     own = float(clearance_at(start[None, :], obstacles, radii)[0])
-    need = params.margin_m
     free = clear >= need
     if own < need + cell:
         # a vehicle already inside the margin may leave: near it, cells no deeper than it is
@@ -144,8 +177,12 @@ def plan_path(start_ne_m: np.ndarray, goal_ne_m: np.ndarray, obstacles: np.ndarr
         free |= around & (clear >= min(own, need) - ESCAPE_SLACK_M)
     start_idx = int(np.argmin(np.abs(us))) * cols + int(np.argmin(np.abs(vs)))
     free[start_idx] = True
-    inside = np.clip((params.comfort_m - (clear - need)) / params.comfort_m, 0.0, 1.0)
+    inside = np.clip((params.comfort_m - (clear - params.margin_m)) / params.comfort_m, 0.0, 1.0)
     penalty = params.comfort_weight * inside
+    if need < params.margin_m:
+        # a tight cell (clearance between need and margin_m) costs more, the tighter the more
+        penalty = penalty + params.tight_weight * np.clip(
+            (params.margin_m - clear) / (params.margin_m - need), 0.0, 1.0)
     # the grid's edges: 8-neighbour moves between free cells
     index = np.arange(rows * cols).reshape(rows, cols)
     src, dst, wts = [], [], []
@@ -173,6 +210,8 @@ def plan_path(start_ne_m: np.ndarray, goal_ne_m: np.ndarray, obstacles: np.ndarr
     else:
         edge = np.zeros((rows, cols), dtype=bool)
         edge[0, :] = edge[-1, :] = edge[:, 0] = edge[:, -1] = True
+        if ahead_only:
+            edge &= grid_u >= 0.0
         targets = np.flatnonzero(edge.ravel() & free)
         to_goal_m = np.hypot(*(flat[targets] - goal).T) + 1e-6
     src.append(targets)
@@ -182,7 +221,7 @@ def plan_path(start_ne_m: np.ndarray, goal_ne_m: np.ndarray, obstacles: np.ndarr
                        shape=(n + 1, n + 1))
     dist, pred = dijkstra(graph, directed=True, indices=start_idx, return_predecessors=True)
     if not np.isfinite(dist[goal_node]):
-        return PlannedPath(False, np.empty((0, 2)), None, None, 0.0, math.inf)
+        return PlannedPath(False, np.empty((0, 2)), None, None, 0.0, math.inf, need)
     chain = []
     node = int(pred[goal_node])
     while node >= 0 and node != start_idx:
@@ -194,11 +233,18 @@ def plan_path(start_ne_m: np.ndarray, goal_ne_m: np.ndarray, obstacles: np.ndarr
     if goal_inside:
         points = np.vstack([points, goal])
     steps = np.hypot(*np.diff(points, axis=0).T)
-    carrot = first_leg(points, steps, obstacles, radii, need, min(own, need) - ESCAPE_SLACK_M,
+    # the clearance the path keeps over its first carrot_m (margin_m, less through tight cells)
+    cells = np.array(chain[::-1])[1:]
+    along = np.cumsum(steps[:len(cells)])
+    ahead = clear[cells[along <= params.carrot_m]]
+    keeps = float(np.clip(ahead.min(initial=params.margin_m), need, params.margin_m)) \
+        if need < params.margin_m else need
+    carrot = first_leg(points, steps, obstacles, radii, keeps, min(own, keeps) - ESCAPE_SLACK_M,
                        params)
     heading = math.atan2(carrot[1] - start[1], carrot[0] - start[0]) \
         if np.hypot(*(carrot - start)) > 1e-9 else math.atan2(axis_u[1], axis_u[0])
-    return PlannedPath(True, points, carrot, heading, float(steps.sum()), float(dist[goal_node]))
+    return PlannedPath(True, points, carrot, heading, float(steps.sum()), float(dist[goal_node]),
+                       keeps)
 
 
 def first_leg(points: np.ndarray, steps: np.ndarray, obstacles: np.ndarray, radii: np.ndarray,

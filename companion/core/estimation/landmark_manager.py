@@ -199,6 +199,9 @@ class LandmarkManager:
         z = np.array([obs.range_m, obs.bearing_rad])
         action, key = plan if plan is not None else ("new", None)
         ids = slam.landmark_ids()
+        if action == "ambiguous" and self.estimator.options.new_beside_tentative \
+                and key in ids and key not in self._frame_taken and self.lifecycle.is_tentative(key):
+            action = "new"      # near only a tentative landmark nothing else took: a guess
         if isinstance(obs, SurfacePoint):
             return self._observe_surface(obs, z, key if action == "update" else None)
         if action == "update" and key in ids:
