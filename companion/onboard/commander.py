@@ -13,6 +13,8 @@ import dataclasses
 import logging
 import math
 
+import numpy as np
+
 from companion.core.avoidance.guidance import shape_setpoint
 from companion.core.geometry import wrap_angle
 from companion.core.sample_interval import setpoint_interval_s
@@ -73,6 +75,8 @@ class Commander:
         if p.liveness.camera_stale(t_s):
             self.safe(t_link_s, t_s, "obstacle data stale", out)
             return
+        if self._look_around(t_link_s, t_s, out):
+            return
         setpoint = self.setpoint(t_s, command)
         verdict = p.gate.check(setpoint)
         if not verdict.passed:
@@ -85,6 +89,48 @@ class Commander:
                 out.append(codec.Notice(codec.SEVERITY_INFO, "companion: guidance resumed"))
             self.safe_reason, self._safe_logged_commanding = None, False
         self.send(t_link_s, setpoint, out)
+
+    def _look_around(self, t_link_s: float, t_s: float, out: list) -> bool:
+        """After a start in the air: a hold turning the nose round, then a step back from the
+        nearest mapped obstacle (onboard/look_around.py) instead of guidance's setpoint; False
+        once the look is over or was never wanted."""
+        p = self._pipeline
+        look = p.look_around
+        if look.state == "done" or not (p.commanding_allowed(t_link_s)
+                                        and p.phase.decide(t_s).may_command):
+            return False
+        was_active = look.active
+        step = look.next_yaw(t_s, p.ap_yaw_rad, p.ap_speed_mps, self._nearest_ne_m())
+        if step is None:
+            if was_active:
+                log.info("look-around over at %.1f s (%s): guidance flies on with %d landmarks",
+                         t_s, look.end_reason, p.navigator.slam.landmark_count)
+                out.append(codec.Notice(codec.SEVERITY_INFO,
+                                        f"companion: look-around done ({look.end_reason})"))
+            return False
+        if not was_active:
+            log.warning("started with the vehicle armed in the air at %.1f s: holding and "
+                        "looking round before flying on", t_s)
+            out.append(codec.Notice(codec.SEVERITY_WARNING,
+                                    "companion: joined in flight, holding to look around"))
+        self.send(t_link_s, codec.VelocitySetpoint(
+            *p.vehicle, t_s, step.vel_north_mps, step.vel_east_mps, step.yaw_rad,
+            "hold: look around" if step.step <= step.steps else "look around: back off"), out)
+        return True
+
+    def _nearest_ne_m(self) -> tuple[float, float] | None:
+        """The nearest mapped obstacle's offset from the vehicle, turned into the autopilot's
+        frame (its yaw drifts from the SLAM yaw, as in setpoint); None: nothing mapped."""
+        p = self._pipeline
+        slam = p.navigator.slam
+        if slam.landmark_count == 0:
+            return None
+        pose = slam.pose
+        rel = slam.landmarks() - pose[:2]
+        north, east = rel[int(np.argmin(np.hypot(rel[:, 0], rel[:, 1])))]
+        offset = p.ap_yaw_rad - float(pose[2])
+        c, s = math.cos(offset), math.sin(offset)
+        return (c * north - s * east, s * north + c * east)
 
     def setpoint(self, t_s: float, command) -> codec.VelocitySetpoint | None:
         """Turn-limit the velocity's direction and the nose (core/avoidance/guidance.py shape_setpoint),

@@ -67,6 +67,7 @@ class VehicleIdentity:
             p.liveness.on_vehicle_heartbeat(t_link_s)
             p.clock.on_vehicle_heartbeat()
             self.armed, self.custom_mode = hb.armed, hb.custom_mode
+            p.look_around.on_heartbeat(hb.armed)
             p.phase.on_armed(hb.armed)
             p.commander.note_phase()
             self.note_allowed(t_link_s)

@@ -133,4 +133,8 @@ def snapshot(pipeline) -> dict:
         "parameters": pipeline.params.summary(),
         **odometry_intake.snapshot(nav),
         **pipeline.heights.snapshot(nav),
+        # only after a start in the air (onboard/look_around.py): other flights' reports unchanged
+        **({"look_around": {"started_t_s": look.started_t_s, "ended_t_s": look.ended_t_s,
+                            "end_reason": look.end_reason, "backed_off_from_m": look.backed_off_m}}
+           if (look := pipeline.look_around).started_t_s is not None else {}),
     }

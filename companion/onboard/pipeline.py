@@ -64,6 +64,7 @@ from companion.onboard.goals import Goals
 from companion.onboard.health import HealthInputs
 from companion.onboard.heights import ServiceHeights
 from companion.onboard.identity import VehicleIdentity
+from companion.onboard.look_around import LookAround
 from companion.onboard.outputs import (Arrived, EstimateOutputs, NavigatorStarted,  # noqa: F401
                                        Output, StreamsWanted, snapshot)
 from companion.onboard.param_requests import ParamRequests
@@ -111,6 +112,9 @@ class Pipeline:
         self.position_resets: list[dict] = []       # {t_s, offset_m}: estimate restarted from a fix
         self.estimator_notices = odometry_intake.EstimatorNotices()
         self.ap_yaw_rad: float | None = None        # autopilot yaw at the last odometry sample
+        self.ap_speed_mps = 0.0                     # ground speed at the last odometry sample
+        # a start that finds the vehicle armed: hold and look round first (onboard/look_around.py)
+        self.look_around = LookAround(config.restart.params(config.avoidance.safety_distance_m))
         self.started_t_s: float | None = None
         self.phase = FlightPhase(config.flight.params())
         self.vertical = VerticalHold(config.flight.params())
@@ -355,7 +359,7 @@ class Pipeline:
         if nav.t_s == before and before is not None:
             self.count("odometry_not_newer")
             return
-        self.ap_yaw_rad = yaw
+        self.ap_yaw_rad, self.ap_speed_mps = yaw, speed
         self.outputs.record(lpn.t_s, nav)
         last = self.commander.last_decision_t_s
         due = (last is None or lpn.t_s - last

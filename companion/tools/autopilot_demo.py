@@ -65,6 +65,7 @@ GCS_STREAMS = (dialect.MSG_ID_ATTITUDE, dialect.MSG_ID_SIMSTATE,
 # Budgets in the autopilot's seconds (divided by the speedup, plus a wall margin for start-up).
 EKF_BUDGET_S = 120.0          # boot to a GUIDED-capable EKF: about 42 s with this binary
 ARM_BUDGET_S = 60.0           # PreArm refusals after the EKF is ready
+RESTART_BUDGET_S = 90.0
 CLIMB_BUDGET_S = 60.0
 WALL_MARGIN_S = 20.0
 READY_TIMEOUT_S = 30.0
@@ -266,6 +267,10 @@ async def fly(gcs: GroundStation, files: AutopilotFiles, scenario: Scenario, spe
     if setup.kill_at_north_m is not None:
         await kill_and_restart(gcs, files, setup, start_service, budget)
     flight_s = scenario.mission.max_time_s + CLIMB_BUDGET_S
+    if setup.kill_at_north_m is not None:
+        # the new process's start (its interpreter under load: tens of s of vehicle time at x10)
+        # and its look round before flying on (restart.look_around, up to its look_timeout_s)
+        flight_s += RESTART_BUDGET_S
     report = await wait_for(
         lambda: _not_disarmed(state) and (r := read_report(files.report)) and r.get("arrived")
         and r, "the service to report arrival", budget(flight_s), children)

@@ -132,6 +132,18 @@ def test_killed_while_avoiding_and_restarted_the_flight_ends_at_the_goal(tmp_pat
     assert clearance >= 9.5
     final = json.loads(report.read_text())
     assert final["arrived"] and final["reset_counter"] == 0
+    # joined in flight: it held and turned the nose a full circle before flying on
+    # (companion/onboard/look_around.py), and the vehicle stayed put meanwhile
+    look = final["look_around"]
+    assert look["end_reason"] in ("full circle", "full circle, backed off")
+    allowed_m = 1.0 if look["backed_off_from_m"] is None else 15.0 - look["backed_off_from_m"] + 1.0
+    during = [r for r in rows if look["started_t_s"] <= r["t_s"] <= look["ended_t_s"]]
+    assert len(during) >= 10
+    assert max(math.hypot(r["north_m"] - during[0]["north_m"], r["east_m"] - during[0]["east_m"])
+               for r in during) < allowed_m
+    turned = sum(abs(math.remainder(b["yaw_rad"] - a["yaw_rad"], 2 * math.pi))
+                 for a, b in zip(during, during[1:]))
+    assert turned >= math.radians(300.0)
     end = [r for r in rows if r["t_s"] >= final["arrival_t_s"]][0]
     assert math.hypot(end["north_m"] - GOAL_NE_M[0], end["east_m"] - GOAL_NE_M[1]) <= 2.0 + 2.0
     # the new estimate started where the autopilot said the vehicle was (no GPS here: its

@@ -17,8 +17,11 @@ GOAL = GoalConfig(180.0, 0.0, 2.0)
 
 
 def config(**failsafe):
+    """The Feed joins a vehicle already armed in the air: without restart.look_around, which
+    would hold it first (tests/service/test_look_around.py)."""
     base = load_config("config/companion.yaml")
-    return dataclasses.replace(base, failsafe=dataclasses.replace(base.failsafe, **failsafe))
+    return dataclasses.replace(base, failsafe=dataclasses.replace(base.failsafe, **failsafe),
+                               restart=dataclasses.replace(base.restart, look_around=False))
 
 
 def hb(armed=True, mode=GUIDED, sysid=1, compid=1, autopilot=True):
