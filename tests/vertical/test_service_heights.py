@@ -36,9 +36,12 @@ def test_points_of_one_obstacle_become_one_observation_with_its_top_and_bottom()
 
 
 def vertical_config(**avoidance):
+    """Feed3D joins a vehicle already armed in the air: without restart.look_around, which would
+    hold it and turn it round first (tests/service/test_look_around.py)."""
     base = load_config("config/companion.yaml")
     return dataclasses.replace(base, avoidance=dataclasses.replace(
-        base.avoidance, vertical=True, **avoidance))
+        base.avoidance, vertical=True, **avoidance),
+        restart=dataclasses.replace(base.restart, look_around=False))
 
 
 def test_the_climb_sent_is_bounded_and_finite():
@@ -136,7 +139,9 @@ def test_an_altitude_ceiling_below_the_wall_s_clearance_keeps_the_service_level(
 
 
 def test_with_vertical_off_the_z_is_ignored_and_the_altitude_held():
-    feed = fly(load_config("config/companion.yaml"), WALL, floor=False, until_north_m=95.0)
+    base = load_config("config/companion.yaml")
+    flat = dataclasses.replace(base, restart=dataclasses.replace(base.restart, look_around=False))
+    feed = fly(flat, WALL, floor=False, until_north_m=95.0)
     assert all(abs(up - 10.0) < 0.05 for _, up in feed.track)
     assert "vertical" not in snapshot(feed.p)
 
