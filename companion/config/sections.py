@@ -223,8 +223,17 @@ class EstimatorConfig:
     # of the frame took starts a new landmark (the tentative one is a guess; forests: one 2 m off
     # swallowed its neighbour's every sighting, docs/forest.md). false: dropped, as before.
     new_beside_tentative: bool = False
+    # A young landmark is taken to have moved to an id-less sighting (a mover's next point) only
+    # if the jump is at most this fraction of the distance from the landmark to its nearest
+    # other one in the map: a sighting that far off could be that neighbour's, or one beside it
+    # (forests 2.5 m apart, docs/forest.md item 15). null: off, the mover's speed reach alone.
+    moved_spacing_gate: float | None = None
 
     def __post_init__(self) -> None:
+        if self.moved_spacing_gate is not None:
+            require(math.isfinite(self.moved_spacing_gate) and 0.0 < self.moved_spacing_gate <= 1.0,
+                    "moved_spacing_gate", self.moved_spacing_gate,
+                    "a fraction in (0, 1] of the nearest neighbour's distance, or null (off)")
         if self.archive_behind_m is not None:
             require(math.isfinite(self.archive_behind_m) and self.archive_behind_m > 0.0,
                     "archive_behind_m", self.archive_behind_m, "a distance > 0 m, or null (off)")
@@ -315,7 +324,8 @@ class EstimatorConfig:
             velocity_in_yaw_frame=self.velocity_frame == "yaw",
             archive=None if self.archive_behind_m is None
             else ArchiveParams(self.archive_behind_m, self.archive_unseen_s),
-            new_beside_tentative=self.new_beside_tentative)
+            new_beside_tentative=self.new_beside_tentative,
+            moved_spacing_gate=self.moved_spacing_gate)
 
     def mover_params(self) -> MoverParams:
         return MoverParams(strikes_to_mover=self.mover_strikes, probation_s=self.mover_probation_s,

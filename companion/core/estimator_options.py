@@ -58,6 +58,12 @@ class EstimatorOptions:
                                           # gate's grey zone) starts a new landmark instead of
                                           # being dropped (forests: a misplaced tentative trunk
                                           # swallowed every sighting of its neighbour; docs/forest.md)
+    moved_spacing_gate: float | None = None  # a young landmark is taken to have 'moved' to an
+                                          # unassociated sighting only if the jump is at most this
+                                          # fraction of the distance from it to its nearest other
+                                          # landmark (probation.within_spacing; forests: at 2.5 m
+                                          # spacing the neighbour's sighting; docs/forest.md
+                                          # item 15). None: off, the speed reach alone
 
     def yaw_fix_sigma_rad(self, dt_s: float | None) -> float:
         """The sigma to fuse one autopilot yaw sample with, ``dt_s`` after the last one (None:

@@ -30,6 +30,26 @@ MOVED_MAX_GAP_S = 1.0          # ...at most this long apart (five frames missed 
 SIGHTING_ACTIONS = ("updated", "added", "outlier", "moved")   # the reports that saw the landmark
 
 
+def nearest_other_m(points: np.ndarray, index: int) -> float:
+    """The distance from ``points[index]`` to the nearest other of ``points`` (inf: none)."""
+    points = np.asarray(points, dtype=float).reshape(-1, 2)
+    if len(points) < 2:
+        return math.inf
+    gaps = np.hypot(*(points - points[index]).T)
+    gaps[index] = math.inf
+    return float(gaps.min())
+
+
+def within_spacing(jump_m: float, neighbour_m: float, fraction: float) -> bool:
+    """Whether a young landmark's jump of ``jump_m`` to a sighting may be its own motion, its
+    nearest other landmark ``neighbour_m`` away: at most ``fraction`` of that distance. A mover
+    moves continuously (a walker 0.3 m a frame at 5 Hz); a sighting as far off as the map's own
+    spacing sits where a neighbour is or could be, and is no evidence of motion. At 0.5 the
+    sighting is nearer the young landmark than its nearest neighbour, and than any other
+    (triangle inequality: at least neighbour_m - jump_m >= jump_m from each)."""
+    return jump_m <= fraction * neighbour_m
+
+
 @dataclass
 class Sightings:
     """A landmark on probation: its dead-reckoned world points and its last observation."""
@@ -123,8 +143,12 @@ class MoverProbation:
     def moved(self, dr_point: np.ndarray, seen: set[int], taken: set[int]) -> int | None:
         """The young landmark whose last dead-reckoned point is near enough for a mover (one
         already ``seen`` in this frame, or ``taken`` by another of its observations, is not:
-        nothing moves between two returns of one frame)."""
+        nothing moves between two returns of one frame). With ``moved_spacing_gate`` (estimator
+        options), not one whose jump is beyond that fraction of the distance from it to its
+        nearest other landmark in the map (``within_spacing``)."""
         clock_s = self.estimator.clock_s
+        fraction = self.estimator.options.moved_spacing_gate
+        index_of, points = None, None
         best, best_gap = None, math.inf
         for key, young in self.young.items():
             if key in seen or key in taken \
@@ -133,6 +157,14 @@ class MoverProbation:
             gap = float(np.hypot(*(dr_point - young.points[-1])))
             reach = (MAX_MOVER_SPEED_MPS * (clock_s - young.times[-1]) + MOVED_GATE_M)
             if gap <= reach and gap < best_gap:
+                if fraction is not None:
+                    if index_of is None:
+                        slam = self.estimator.slam
+                        index_of = {k: i for i, k in enumerate(slam.landmark_ids())}
+                        points = slam.landmarks()
+                    if key in index_of and not within_spacing(
+                            gap, nearest_other_m(points, index_of[key]), fraction):
+                        continue
                 best, best_gap = key, gap
         return best
 
