@@ -13,7 +13,7 @@ from companion.mavlink import codec, obstacle_forms
 from companion.onboard.heights import ServiceHeights
 from companion.onboard.pipeline import Pipeline, snapshot
 
-from tests.service.test_pipeline import GOAL, Feed, hb, setpoints
+from tests.service.test_pipeline import GOAL, Feed, config, hb, setpoints
 
 VFOV_RAD = math.radians(58.0)
 WALL = [(i, 100.0, e, 1.0, 3.0) for i, e in enumerate(range(-30, 31, 4), start=1)]   # 3 m posts
@@ -36,12 +36,11 @@ def test_points_of_one_obstacle_become_one_observation_with_its_top_and_bottom()
 
 
 def vertical_config(**avoidance):
-    """Feed3D joins a vehicle already armed in the air: without restart.look_around, which would
-    hold it and turn it round first (tests/service/test_look_around.py)."""
-    base = load_config("config/companion.yaml")
+    """test_pipeline's config (Feed3D joins a vehicle already armed in the air: without
+    restart.look_around, which would hold it and turn it round first) with vertical on."""
+    base = config()
     return dataclasses.replace(base, avoidance=dataclasses.replace(
-        base.avoidance, vertical=True, **avoidance),
-        restart=dataclasses.replace(base.restart, look_around=False))
+        base.avoidance, vertical=True, **avoidance))
 
 
 def test_the_climb_sent_is_bounded_and_finite():
@@ -139,9 +138,7 @@ def test_an_altitude_ceiling_below_the_wall_s_clearance_keeps_the_service_level(
 
 
 def test_with_vertical_off_the_z_is_ignored_and_the_altitude_held():
-    base = load_config("config/companion.yaml")
-    flat = dataclasses.replace(base, restart=dataclasses.replace(base.restart, look_around=False))
-    feed = fly(flat, WALL, floor=False, until_north_m=95.0)
+    feed = fly(config(), WALL, floor=False, until_north_m=95.0)
     assert all(abs(up - 10.0) < 0.05 for _, up in feed.track)
     assert "vertical" not in snapshot(feed.p)
 

@@ -148,7 +148,7 @@ class MoverProbation:
         nearest other landmark in the map (``within_spacing``)."""
         clock_s = self.estimator.clock_s
         fraction = self.estimator.options.moved_spacing_gate
-        index_of, points = None, None
+        nearest_other = None if fraction is None else self._nearest_other_lookup()
         best, best_gap = None, math.inf
         for key, young in self.young.items():
             if key in seen or key in taken \
@@ -157,16 +157,20 @@ class MoverProbation:
             gap = float(np.hypot(*(dr_point - young.points[-1])))
             reach = (MAX_MOVER_SPEED_MPS * (clock_s - young.times[-1]) + MOVED_GATE_M)
             if gap <= reach and gap < best_gap:
-                if fraction is not None:
-                    if index_of is None:
-                        slam = self.estimator.slam
-                        index_of = {k: i for i, k in enumerate(slam.landmark_ids())}
-                        points = slam.landmarks()
-                    if key in index_of and not within_spacing(
-                            gap, nearest_other_m(points, index_of[key]), fraction):
-                        continue
+                if nearest_other is not None and not within_spacing(gap, nearest_other(key),
+                                                                    fraction):
+                    continue
                 best, best_gap = key, gap
         return best
+
+    def _nearest_other_lookup(self):
+        """key -> the distance from that landmark to its nearest other in the filter now (inf:
+        not in the filter, or alone)."""
+        slam = self.estimator.slam
+        index_of = {k: i for i, k in enumerate(slam.landmark_ids())}
+        points = slam.landmarks()
+        return lambda key: (nearest_other_m(points, index_of[key]) if key in index_of
+                            else math.inf)
 
     def judge_refusal(self, oid: int, obs: Observation, report: UpdateReport,
                       used: set[int]) -> UpdateReport:
