@@ -266,50 +266,59 @@ def seen_so_far(truth: list[dict], fov_deg: float, range_m: float) -> tuple[np.n
 
 
 def _frame_time_s(msg) -> float | None:
+    """The capture time of a report that holds an obstacle (an OBSTACLE_DISTANCE_3D point, an
+    OBSTACLE_DISTANCE with a sector at or within its max_distance); None for anything else, a
+    frame that saw nothing included (there is no obstacle to answer: it changes no decision)."""
     kind = msg.get_type()
     if kind == "OBSTACLE_DISTANCE_3D":
         return msg.time_boot_ms / 1000.0
-    if kind == "OBSTACLE_DISTANCE":
+    if kind == "OBSTACLE_DISTANCE" and any(d <= msg.max_distance for d in msg.distances):
         return msg.time_usec / 1e6
     return None
 
 
 def capture_to_setpoint_s(tlog: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
     """Camera frames and the setpoints that answer them, from the daemon's tlog: (each answered
-    frame's capture time on the stub's clock s, capture to setpoint s, closing message's receipt
-    to setpoint s), and the clock offset (Unix s - stub s).
+    frame's capture time on the stub's clock s, capture to setpoint s, frame received to
+    setpoint s), and the clock offset (Unix s - stub s).
 
-    A frame is the reports of one capture time; the pipeline decides on it when the first
-    message not of it arrives (onboard/camera_frames.py FrameAssembly); it is answered by the first
-    SET_POSITION_TARGET_LOCAL_NED sent after that, and every frame completed before that
-    setpoint is answered by it (a throttled process reads a backlog before it sends). Counted
-    from the first setpoint on (before it the companion is not commanding). The stub's clock
+    A frame is the reports of one capture time from one camera, if it saw an obstacle
+    (_frame_time_s). It is answered by the first
+    SET_POSITION_TARGET_LOCAL_NED sent after its last report was received whose own time
+    (time_boot_ms: the estimate's time the decision was made at) is not before the capture: a
+    decision that knew the frame (the estimator takes a frame at the odometry of its time, so a
+    setpoint made on an older pose has not seen it, whenever it was sent). Counted from the
+    first setpoint on (before it the companion is not commanding). The stub's clock
     (time_boot_ms) is tied to the daemon's (the tlog's Unix us) by the smallest receipt minus
     time_boot_ms over the flight (the fastest delivery)."""
     records = [(r.t_us / 1e6, r.msg) for r in TlogReader(tlog)]
     offset = min(t - m.time_boot_ms / 1000.0 for t, m in records
                  if m.get_srcComponent() != OUR_COMPONENT and hasattr(m, "time_boot_ms"))
     frames, total, reaction = [], [], []
-    open_t = None
-    pending: list[tuple[float, float]] = []      # (capture s, closing receipt Unix s)
+    waiting: dict[tuple[int, float], float] = {}   # (camera, capture s) -> last report's receipt
+    answered: set[tuple[int, float]] = set()
     commanding = False
     for t, msg in records:
         if msg.get_srcComponent() == OUR_COMPONENT:
             if msg.get_type() == "SET_POSITION_TARGET_LOCAL_NED":
-                if commanding:
-                    for capture, closed in pending:
-                        frames.append(capture)
-                        total.append(t - (capture + offset))
-                        reaction.append(t - closed)
-                commanding, pending = True, []
+                decided_s = msg.time_boot_ms / 1000.0
+                for key, received in list(waiting.items()):
+                    if key[1] <= decided_s + 1e-3:
+                        if commanding:
+                            frames.append(key[1])
+                            total.append(t - (key[1] + offset))
+                            reaction.append(t - received)
+                        del waiting[key]
+                        answered.add(key)
+                commanding = True
             continue
         capture = _frame_time_s(msg)
-        if open_t is not None and capture != open_t:
-            pending.append((open_t, t))
-            open_t = None
         if capture is not None:
-            open_t = capture
-    return np.array(frames), np.array(total), np.array(reaction), offset
+            key = (msg.get_srcComponent(), capture)
+            if key not in answered:             # (a report after the answer: not a new frame)
+                waiting[key] = t
+    order = np.argsort(frames)
+    return (np.array(frames)[order], np.array(total)[order], np.array(reaction)[order], offset)
 
 
 def percentiles_ms(values_s: np.ndarray) -> dict:
@@ -340,7 +349,8 @@ class QuotaFlight:
     by_map: list = field(default_factory=list)
 
 
-def fly(scenario: dict, workdir: Path, name: str, throttle, seed: int = 0) -> QuotaFlight:
+def fly(scenario: dict, workdir: Path, name: str, throttle, seed: int = 0,
+        config: Path | None = None) -> QuotaFlight:
     scenario_path = workdir / f"{name}.yaml"
     scenario_path.write_text(yaml.safe_dump(scenario))
     keep, tlog, out = workdir / name, workdir / f"{name}.tlog", workdir / f"{name}.json"
@@ -349,7 +359,7 @@ def fly(scenario: dict, workdir: Path, name: str, throttle, seed: int = 0) -> Qu
     demo = subprocess.Popen(
         [sys.executable, "-m", "companion", "demo", "--scenario", str(scenario_path),
          "--no-lockstep", "--speedup", "1", "--seed", str(seed), "--tlog", str(tlog),
-         "--keep", str(keep), "--json", str(out)],
+         "--keep", str(keep), "--json", str(out)] + (["--config", str(config)] if config else []),
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, stdin=subprocess.DEVNULL, cwd=REPO)
     watch = DaemonWatch(demo, throttle)
     watch.start()
@@ -448,6 +458,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--map-rows", type=int, default=150,
                         help="rows of the 10 Hz map corridor (0: skip)")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--config", type=Path, default=None,
+                        help="the service's base settings (companion demo --config; default "
+                             "config/companion.yaml)")
     parser.add_argument("--only", choices=("free", "quota", "map"), action="append",
                         help="run only these flights (repeatable)")
     parser.add_argument("--json", type=Path, default=None, help="write the figures here")
@@ -462,7 +475,7 @@ def main(argv: list[str] | None = None) -> int:
         flights = []
         scenario15 = corridor_scenario(args.rows, 15.0)
         if "free" in only:
-            flights.append(fly(scenario15, workdir, "free-15hz", None, args.seed))
+            flights.append(fly(scenario15, workdir, "free-15hz", None, args.seed, args.config))
             print_flight(flights[-1])
         for name, scenario in (("quota-15hz", scenario15),
                                ("quota-map-10hz", corridor_scenario(args.map_rows, 10.0))):
@@ -472,7 +485,7 @@ def main(argv: list[str] | None = None) -> int:
                 continue
             throttle = make_throttle(args.throttle, args.quota, f"companion-quota-{os.getpid()}")
             try:
-                flights.append(fly(scenario, workdir, name, throttle, args.seed))
+                flights.append(fly(scenario, workdir, name, throttle, args.seed, args.config))
             finally:
                 throttle.close()
             print_flight(flights[-1])

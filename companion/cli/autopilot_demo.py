@@ -9,6 +9,7 @@ import time
 from pathlib import Path
 
 from companion.cli.run import run_task_tree
+from companion.config.paths import resolve_config
 from companion.errors import CompanionError
 from companion.tools.report import print_summary, write_json
 
@@ -45,7 +46,8 @@ def setup_from(args: argparse.Namespace):
     if not 1.0 <= args.takeoff_alt <= 100.0:
         raise CompanionError(f"--takeoff-alt: expected 1 to 100 m, got {args.takeoff_alt:g}")
     return AutopilotSetup(Path(args.autopilot).resolve(), Path(defaults).resolve(),
-                          args.takeoff_alt, args.service_start)
+                          args.takeoff_alt, args.service_start,
+                          resolve_config(args.config))
 
 
 def run_autopilot(args: argparse.Namespace, scenario_path: Path, scenario) -> int:

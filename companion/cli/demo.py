@@ -10,11 +10,13 @@ from pathlib import Path
 from companion.cli.autopilot_demo import add_autopilot_arguments, run_autopilot
 from companion.cli.run import run_task_tree
 from companion.config.scenario import load_scenario
+from companion.config.service import load_config
 from companion.errors import CompanionError
 from companion.config.paths import resolve_config
 from companion.tools.report import print_summary, write_json
 
 DEFAULT_SCENARIO = "config/scenarios/paper.yaml"
+DEFAULT_BASE_CONFIG = "config/companion.yaml"
 
 
 def add_parser(sub) -> None:
@@ -25,6 +27,11 @@ def add_parser(sub) -> None:
                     "arrival, and scores the flight like `companion simulate`.")
     p.add_argument("--scenario", default=DEFAULT_SCENARIO,
                    help=f"scenario YAML (default {DEFAULT_SCENARIO})")
+    p.add_argument("--config", default=DEFAULT_BASE_CONFIG, metavar="PATH",
+                   help="the service's settings the scenario's are laid over (its estimator, "
+                        "avoidance, goal and vehicle limits come from the scenario; links, "
+                        "streams, failsafes and the rest from here; default "
+                        f"{DEFAULT_BASE_CONFIG})")
     p.add_argument("--lockstep", action=argparse.BooleanOptionalAction, default=True,
                    help="stub and companion in lock-step: the same flight whatever the machine's "
                         "load, as fast as the two processes go (default); --no-lockstep: the "
@@ -64,6 +71,8 @@ def run(args: argparse.Namespace) -> int:
         raise CompanionError(f"--drop-rate: expected a fraction in [0, 1), got {args.drop_rate}")
     scenario_path = resolve_config(args.scenario)
     scenario = load_scenario(scenario_path)
+    base_config = resolve_config(args.config)
+    load_config(base_config)                  # a bad base names its file and key, before a child
     if args.view_feed:
         from companion.view.feed import parse_address
         parse_address(args.view_feed, "--view-feed")
@@ -81,7 +90,7 @@ def run(args: argparse.Namespace) -> int:
         report, _, truth, samples = run_task_tree(run_demo(
                 scenario_path, scenario, files, args.speedup, args.seed, args.drop_rate,
                 Path(args.signing_key).resolve() if args.signing_key else None, args.lockstep,
-                args.view_feed, args.lockstep_overlap))
+                args.view_feed, args.lockstep_overlap, base_config))
         summary, arrays = score(report, truth, scenario, args.seed)
     wall_s = time.monotonic() - started
     result = demo_result(summary, arrays.pop("nees"), scenario)

@@ -37,6 +37,11 @@ class LinkConfig:
     heartbeat_timeout_s: float = 3.0          # vehicle heartbeat older than this: stop commanding
     reconnect_interval_s: float = 1.0
     inbox_size: int = 1000
+    # A camera frame (its reports of one capture time) is complete once this long has passed
+    # after its last report with nothing else arriving (link time); null: when the first message
+    # not of it arrives (on a stub or camera that ends each burst, the next burst: up to one
+    # step late). Reports of a frame that came after it closed are counted and dropped.
+    camera_frame_idle_s: float | None = None
     signing_key_file: str | None = None       # MAVLink 2 signing: file with the key, 64 hex chars
     # SYS_STATUS with the obstacle-avoidance bit (companion/onboard/health.py). false: none, for a
     # ground station that reads a non-autopilot's SYS_STATUS as the vehicle's (docs/messages.md,
@@ -54,6 +59,9 @@ class LinkConfig:
         for key in ("heartbeat_rate_hz", "heartbeat_timeout_s", "reconnect_interval_s"):
             require_positive(key, getattr(self, key))
         require(self.inbox_size >= 10, "inbox_size", self.inbox_size, "an integer >= 10")
+        require(self.camera_frame_idle_s is None or 0.0 < self.camera_frame_idle_s <= 0.5,
+                "camera_frame_idle_s", self.camera_frame_idle_s,
+                "null (off) or seconds in (0, 0.5]")
         require(self.signing_key_file is None or self.signing_key_file.strip() != "",
                 "signing_key_file", self.signing_key_file, "a file name or null")
 

@@ -111,9 +111,13 @@ class Service:
         # handled (and recorded), as replay reproduces it. (inbox.get() does not yield while the
         # inbox holds messages, so the TaskGroup's cancellation alone could come late.)
         while not self.stop.is_set():
-            received = await link.inbox.get()
+            received = await self._next_received()
             if self.stop.is_set():
                 break
+            if received is None:                # a camera frame complete on idle time
+                for output in self.pipeline.close_idle_frame(link.now_us() / 1e6):
+                    await self._dispatch(output)
+                continue
             if self.clock is None:
                 await self._handle(received)
                 continue
@@ -124,6 +128,20 @@ class Service:
                 while not await self._handle(received) and not link.inbox.empty() \
                         and not self.stop.is_set():
                     received = link.inbox.get_nowait()
+
+    async def _next_received(self):
+        """The next message; None if a camera frame waits and ``link.camera_frame_idle_s``
+        passes first (on the wall clock; not in lock-step, whose clock is the stub's steps: there
+        the next step's messages close the frame, as the tlog's stamps do in replay)."""
+        link = self.link
+        deadline_s = self.pipeline.frame_idle_deadline_s() if self.clock is None else None
+        if deadline_s is None or not link.inbox.empty():
+            return await link.inbox.get()
+        try:
+            return await asyncio.wait_for(link.inbox.get(),
+                                          max(deadline_s - link.now_us() / 1e6, 0.0))
+        except TimeoutError:
+            return None
 
     async def _handle(self, received) -> bool:
         """One received message: stamp, record, through the pipeline, its outputs out. True if

@@ -2,8 +2,12 @@
 
 One OBSTACLE_DISTANCE_3D per obstacle, all with the frame's time, are one chance for the landmark
 lifecycle, not one each: the reports of one camera with one time are gathered (a frame in
-assembly) until a message that is not part of it arrives; then the frame goes to the estimator
-and the commander decides on what it changed. Reports are taken from the vehicle's autopilot or
+assembly) until a message that is not part of it arrives, or, with ``link.camera_frame_idle_s``,
+until that long has passed on the link's clock after its last report (``idle_due``; the service
+asks when nothing arrives, replay at the next message's stamp: the same frames either way);
+then the frame goes to the estimator and the commander decides on what it changed. A report of
+a frame closed on idle time that comes after all is counted (``obstacle_after_frame_closed``)
+and dropped: the frame was one chance, and it has been taken. Reports are taken from the vehicle's autopilot or
 camera component; a camera stamping in Unix time (OBSTACLE_DISTANCE allows it) is moved to
 vehicle time (TIMESYNC's offset, else the first frame's: safety/clock.py, safety/timesync.py).
 """
@@ -21,6 +25,7 @@ log = logging.getLogger(__name__)
 
 # Beyond this, a finite range is still nonsense (no stereo camera sees a kilometre): refused.
 PLAUSIBLE_RANGE_M = 1000.0
+LINK_STAMP_S = 1e-6     # the link's stamps are whole microseconds (and a sum of floats rounds)
 
 
 @dataclass
@@ -32,6 +37,11 @@ class FrameAssembly:
     t_s: float                      # in vehicle time
     t_link_s: float
     observations: list = field(default_factory=list)
+    last_link_s: float = 0.0        # the link time of its latest report
+
+    @property
+    def key(self) -> tuple[int, int, float]:
+        return self.system_id, self.component_id, self.stamp_s
 
     def continued_by(self, event) -> bool:
         """Another message of this frame: an obstacle report from the same camera, same time."""
@@ -51,12 +61,28 @@ class CameraFrames:
         self.assembly: FrameAssembly | None = None
         self.epoch_camera = EpochCamera()
         self.wants_timesync = False     # a camera stamps in Unix time: the service asks TIMESYNC
+        self.idle_closed: tuple[int, int, float] | None = None   # the last frame closed on idle
+
+    def idle_due(self, t_link_s: float) -> bool:
+        """A frame is in assembly and ``link.camera_frame_idle_s`` has passed since its last
+        report (never with the setting off)."""
+        idle_s = self._pipeline.config.link.camera_frame_idle_s
+        return (idle_s is not None and self.assembly is not None
+                and t_link_s - self.assembly.last_link_s >= idle_s - LINK_STAMP_S)
+
+    def close_idle(self, out: list) -> None:
+        """The frame in assembly is complete on idle time: to the estimator (flush)."""
+        self.idle_closed = self.assembly.key
+        self.flush(out)
 
     def on_obstacles(self, t_link_s: float, frame: codec.ObstacleFrame, out: list) -> None:
         p = self._pipeline
         stamp_s = frame.t_s
         if frame.component_id not in (p.vehicle[1], p.config.link.camera_component_id):
             p.count("ignored_other_source")
+            return
+        if self.idle_closed == (frame.system_id, frame.component_id, stamp_s):
+            p.count("obstacle_after_frame_closed")
             return
         frame = self.in_vehicle_time(frame, out)
         if frame is None:
@@ -90,6 +116,7 @@ class CameraFrames:
             self.assembly = FrameAssembly(frame.system_id, frame.component_id, stamp_s,
                                           frame.t_s, t_link_s)
         self.assembly.observations.extend(observations)
+        self.assembly.last_link_s = t_link_s
 
     def flush(self, out: list) -> None:
         """The assembled camera frame to the estimator, and a decision on what it changed."""

@@ -83,6 +83,7 @@ class AutopilotSetup:
     defaults: Path
     takeoff_alt_m: float = 10.0
     service_start: str = "boot"     # boot (the docs' workflow) | airborne (started at altitude)
+    base_config: str | Path = "config/companion.yaml"   # the settings the scenario's go over
     # Crash and restart (issue 31): SIGKILL the service once the true position passes this
     # north (scenario frame), wait for ArduCopter's GUIDED timeout to stop the vehicle and
     # ``restart_after_s`` of vehicle time more, start a new service (its tlog PATH.restarted);
@@ -110,11 +111,12 @@ def sitl_home(scenario: Scenario) -> sitl.Home:
     return sitl.Home(lat, lon, origin.alt_m, start.yaw_deg % 360.0)
 
 
-def service_config(scenario: Scenario, takeoff_alt_m: float):
+def service_config(scenario: Scenario, takeoff_alt_m: float,
+                   base_config: str | Path = "config/companion.yaml"):
     """The stub demo's service settings, with the goal as latitude/longitude (the service turns
     it into metres with the EKF origin it asks the autopilot for, as an operator's geo goal) and
     the takeoff altitude the ground station will send."""
-    config = demo_config(scenario)
+    config = demo_config(scenario, base_config)
     config = dataclasses.replace(config, estimator=vehicle_noise_of_the_autopilot(config.estimator))
     origin, goal = scenario.world.origin, scenario.world.goal
     lat_deg, lon_deg = to_lat_lon_deg(origin.lat_deg, origin.lon_deg, goal.north_m, goal.east_m)
@@ -336,7 +338,7 @@ async def run_autopilot_demo(scenario_path: Path, scenario: Scenario, files: Aut
     """Fly the scenario on ArduPilot SITL; returns (the service's report moved into the scenario
     frame, its config, the truth records, the takeoff checks)."""
     sitl.check_files(setup.binary, setup.defaults)
-    config = service_config(scenario, setup.takeoff_alt_m)
+    config = service_config(scenario, setup.takeoff_alt_m, setup.base_config)
     files.config.write_text(yaml.safe_dump(config_to_dict(config)))
     files.sitl_dir.mkdir(parents=True, exist_ok=False)
     recorder = FlightRecorder(files.truth, scenario, config.link.camera_component_id,

@@ -75,7 +75,7 @@ class DemoFiles:
         return self.workdir / "companion.yaml"
 
 
-def demo_config(scenario: Scenario, base_path: str = "config/companion.yaml",
+def demo_config(scenario: Scenario, base_path: str | Path = "config/companion.yaml",
                 signing_key_file: Path | None = None) -> CompanionConfig:
     """The companion's settings for a scenario: its estimator, avoidance, goal and limits;
     signed traffic with the key in ``signing_key_file`` (an absolute path) if given."""
@@ -331,15 +331,18 @@ async def run_demo(scenario_path: Path, scenario: Scenario, files: DemoFiles, sp
                    seed: int, drop_rate: float, signing_key_file: Path | None = None,
                    lockstep: bool = True,
                    view_feed: str | None = None,
-                   lockstep_overlap: bool = False) -> tuple[dict, dict, list[dict], list]:
+                   lockstep_overlap: bool = False,
+                   base_config: str | Path = "config/companion.yaml",
+                   ) -> tuple[dict, dict, list[dict], list]:
     """Fly the scenario; returns (the companion's report, its config, the truth records, the
     ground station's (wall s, vehicle s) samples).
     With ``signing_key_file``, the stub, the companion and the ground station all sign.
     ``lockstep``: stub and companion in lock-step (module docstring); else the stub free-runs at
     ``speedup`` on the wall clock. ``view_feed``: HOST:PORT the companion sends its live state to
     (``companion view``). ``lockstep_overlap``: the stub steps on the companion's answer to the
-    sample before the latest (``sitl-stub --lockstep-overlap``)."""
-    config = demo_config(scenario, signing_key_file=signing_key_file)
+    sample before the latest (``sitl-stub --lockstep-overlap``). ``base_config``: the service's
+    settings the scenario's are laid over (demo_config)."""
+    config = demo_config(scenario, base_config, signing_key_file=signing_key_file)
     read_signing_key(config.link)             # a bad key file fails here, before any child
     files.config.write_text(yaml.safe_dump(config_to_dict(config)))
     for stale in (files.report, files.truth):     # a kept workdir's last run must not score
