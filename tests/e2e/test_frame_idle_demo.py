@@ -20,24 +20,24 @@ OURS = 191
 
 
 def answered_before_the_next_step(tlog):
-    """(frames with an obstacle, those whose setpoint went out before any message of a later
-    vehicle time came in)."""
+    """(frames with an obstacle, those whose setpoint went out before the next message that is
+    not of the frame was taken in), in the tlog's order: a message is recorded as it is handled,
+    a setpoint as it is sent."""
     waiting, frames, early = {}, 0, 0
     for record in TlogReader(tlog):
         msg = record.msg
-        t_ms = getattr(msg, "time_boot_ms", None)
         if msg.get_srcComponent() == OURS:
             if msg.get_type() == "SET_POSITION_TARGET_LOCAL_NED":
                 for capture_ms in [c for c in waiting if c <= msg.time_boot_ms]:
                     frames += 1
                     early += waiting.pop(capture_ms)
             continue
-        if msg.get_type() == "OBSTACLE_DISTANCE_3D":
-            waiting.setdefault(t_ms, True)
-        elif t_ms is not None:
-            for capture_ms in waiting:
-                if t_ms > capture_ms:
-                    waiting[capture_ms] = False     # the next step came first
+        of_frame = msg.get_type() == "OBSTACLE_DISTANCE_3D"
+        for capture_ms in waiting:
+            if not (of_frame and msg.time_boot_ms == capture_ms):
+                waiting[capture_ms] = False     # something else came first
+        if of_frame:
+            waiting.setdefault(msg.time_boot_ms, True)
     return frames, early
 
 
@@ -56,9 +56,9 @@ def test_frames_close_on_idle_time_live_and_replay_agrees(tmp_path, capsys):
     (run,) = json.loads((tmp_path / "demo.json").read_text())["runs"]
     assert run["reached_goal"] and not run["collided"]
     frames, early = answered_before_the_next_step(tlog)
-    # Without the idle close none can be (the next step's first message closes the frame); a
+    # Without the idle close none can be (the next message closes the frame: measured 0); a
     # loaded machine may fire a 5 ms timer 20 ms late now and then, not on most frames.
-    assert frames > 100 and early >= 0.5 * frames, (frames, early)
+    assert frames >= 30 and early >= 0.5 * frames, (frames, early)
     capsys.readouterr()
     assert main(["replay", str(tlog), "--json", str(tmp_path / "r.json")]) == 0
     report = json.loads((tmp_path / "r.json").read_text())
