@@ -9,6 +9,7 @@ temporary file, fsync, rename), so a crash mid-write leaves the old overlay.
 """
 from __future__ import annotations
 
+import asyncio
 import logging
 import os
 from dataclasses import dataclass, field
@@ -20,7 +21,7 @@ import yaml
 from companion.config.service import CompanionConfig
 from companion.config.loader import read_yaml
 from companion.errors import ConfigError
-from companion.onboard.parameters import TABLE, apply_values
+from companion.onboard.parameters import TABLE, ParamChange, apply_values
 
 log = logging.getLogger(__name__)
 
@@ -91,3 +92,34 @@ def write_overlay(path: str | Path, values: dict[str, Any]) -> None:
         f.flush()
         os.fsync(f.fileno())
     os.replace(tmp, path)
+
+
+class OverlaySaver:
+    """Accepted PARAM_SETs into the overlay: in memory at once (:meth:`persist`), on disk by the
+    service's ``parameters`` task (:meth:`run`), off the event loop and one write at a time, so a
+    storm of sets is one write, not one fsync each."""
+
+    def __init__(self, overlay: Overlay) -> None:
+        self.overlay = overlay
+        self.dirty = asyncio.Event()
+
+    def persist(self, change: ParamChange) -> None:
+        self.overlay.values[change.key] = change.new
+        self.dirty.set()
+
+    async def run(self) -> None:
+        while True:
+            await self.dirty.wait()
+            self.dirty.clear()
+            await asyncio.to_thread(self.write)
+
+    def write(self) -> None:
+        try:
+            write_overlay(self.overlay.path, dict(self.overlay.values))
+        except OSError as exc:
+            log.error("parameters not saved to %s: %s", self.overlay.path, exc)
+
+    def write_if_dirty(self) -> None:
+        """At shutdown: sets accepted just before it, not yet written by :meth:`run`."""
+        if self.dirty.is_set():
+            self.write()

@@ -14,7 +14,7 @@ sending. Tasks, one job each:
   streams    SET_MESSAGE_INTERVAL (acked, retried), else REQUEST_DATA_STREAM; the EKF origin
              for a lat/lon goal (companion/daemon/streams.py)
   tlog       flush twice a second
-  parameters write the parameter overlay after accepted PARAM_SETs (companion/daemon/param_overlay.py)
+  parameters write the parameter overlay after accepted PARAM_SETs (param_overlay.OverlaySaver)
   stop       SIGINT/SIGTERM -> one stop setpoint if commanding -> ShutdownRequested
 
 With ``lockstep`` (``companion run --lockstep``, against ``sitl-stub --lockstep``) the stamps given
@@ -38,7 +38,7 @@ from companion.mavlink.link import MavlinkLink, open_link
 from companion.mavlink.tlog import TlogWriter
 from companion.config.secrets import read_signing_key
 from companion.config.service import CompanionConfig, config_to_dict
-from companion.daemon.param_overlay import Overlay, write_overlay
+from companion.daemon.param_overlay import Overlay, OverlaySaver
 from companion.errors import ShutdownRequested
 from companion.daemon.lockstep import VehicleLinkClock, lockstep_config
 from companion.daemon.streams import WATCHDOG_INTERVAL_S, StreamRequests
@@ -80,7 +80,7 @@ class Service:
         self.config = config
         self.overlay = overlay
         self.health: health.Health | None = None
-        self.overlay_dirty = asyncio.Event()
+        self.saver = OverlaySaver(overlay) if overlay is not None else None
         self.clock = clock
         self.link = link
         self.tlog = tlog
@@ -115,7 +115,7 @@ class Service:
             if self.stop.is_set():
                 break
             if received is None:                # a camera frame complete on idle time
-                for output in self.pipeline.close_idle_frame(link.now_us() / 1e6):
+                for output in self.pipeline.frames.close_if_idle(link.now_us() / 1e6):
                     await self._dispatch(output)
                 continue
             if self.clock is None:
@@ -134,7 +134,7 @@ class Service:
         passes first (on the wall clock; not in lock-step, whose clock is the stub's steps: there
         the next step's messages close the frame, as the tlog's stamps do in replay)."""
         link = self.link
-        deadline_s = self.pipeline.frame_idle_deadline_s() if self.clock is None else None
+        deadline_s = self.pipeline.frames.idle_deadline_s() if self.clock is None else None
         if deadline_s is None or not link.inbox.empty():
             return await link.inbox.get()
         try:
@@ -186,33 +186,13 @@ class Service:
         elif isinstance(output, StreamsWanted):
             log.info("asking for telemetry streams: %s", output.reason)
             self.streams.wanted.set()
+            self.streams.vehicle_changed.set()
         elif isinstance(output, ParamValue):
             link.send(param_codec.param_value(output))
-        elif isinstance(output, ParamChange):
-            self._persist(output)
+        elif isinstance(output, ParamChange) and self.saver is not None:
+            self.saver.persist(output)
         elif isinstance(output, (NavigatorStarted, Arrived)) and self.report_path:
             await asyncio.to_thread(write_json, self.report_path, self.report(), None)
-
-    def _persist(self, change: ParamChange) -> None:
-        """An accepted PARAM_SET into the overlay (companion/daemon/param_overlay.py): in memory now,
-        on disk by save_parameters (a storm of sets is one write, not one fsync each)."""
-        if self.overlay is None:
-            return
-        self.overlay.values[change.key] = change.new
-        self.overlay_dirty.set()
-
-    async def save_parameters(self) -> None:
-        """Write the overlay after accepted sets, off the event loop, one write at a time."""
-        while True:
-            await self.overlay_dirty.wait()
-            self.overlay_dirty.clear()
-            await asyncio.to_thread(self._write_overlay)
-
-    def _write_overlay(self) -> None:
-        try:
-            write_overlay(self.overlay.path, dict(self.overlay.values))
-        except OSError as exc:
-            log.error("parameters not saved to %s: %s", self.overlay.path, exc)
 
     def _send_identity(self) -> None:
         """HEARTBEAT and SYS_STATUS as companion/onboard/health.py judges the state; a STATUSTEXT when
@@ -394,7 +374,7 @@ async def run_service(config: CompanionConfig, url: str, tlog_path: str | Path |
                     if tlog is not None:
                         tg.create_task(service.flush_tlog(), name="tlog")
                     if overlay is not None:
-                        tg.create_task(service.save_parameters(), name="parameters")
+                        tg.create_task(service.saver.run(), name="parameters")
                     if view_feed is not None:
                         tg.create_task(feed.publish(service.pipeline, view_feed), name="view-feed")
                     tg.create_task(service.raise_on_stop(), name="stop")
@@ -405,7 +385,7 @@ async def run_service(config: CompanionConfig, url: str, tlog_path: str | Path |
             loop.remove_signal_handler(sig)
         if tlog is not None:
             tlog.close()
-        if service is not None and service.overlay_dirty.is_set():
-            service._write_overlay()          # sets accepted just before the shutdown
+        if service is not None and service.saver is not None:
+            service.saver.write_if_dirty()
         if service is not None and report_path is not None:
             write_json(report_path, service.report(), indent=None)

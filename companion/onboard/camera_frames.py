@@ -70,6 +70,22 @@ class CameraFrames:
         return (idle_s is not None and self.assembly is not None
                 and t_link_s - self.assembly.last_link_s >= idle_s - LINK_STAMP_S)
 
+    def idle_deadline_s(self) -> float | None:
+        """Link time at which the frame in assembly is complete on idle time (the service waits
+        for it); None: no frame waits, or the setting is off."""
+        idle_s = self._pipeline.config.link.camera_frame_idle_s
+        if idle_s is None or self.assembly is None:
+            return None
+        return self.assembly.last_link_s + idle_s
+
+    def close_if_idle(self, t_link_s: float) -> list:
+        """Nothing arrived by ``idle_deadline_s``: the frame is complete (the service's timer;
+        replay closes it at the next message's stamp, Pipeline.handle)."""
+        out: list = []
+        if self.idle_due(t_link_s):
+            self.close_idle(out)
+        return out
+
     def close_idle(self, out: list) -> None:
         """The frame in assembly is complete on idle time: to the estimator (flush)."""
         self.idle_closed = self.assembly.key

@@ -213,22 +213,6 @@ class Pipeline:
         It is the last setpoint: nothing is sent after it."""
         return self.commander.stop_setpoint(t_link_s)
 
-    def frame_idle_deadline_s(self) -> float | None:
-        """Link time at which the camera frame in assembly is complete on idle time
-        (``link.camera_frame_idle_s``); None: no frame waits, or the setting is off."""
-        idle_s, assembly = self.config.link.camera_frame_idle_s, self.frames.assembly
-        if idle_s is None or assembly is None:
-            return None
-        return assembly.last_link_s + idle_s
-
-    def close_idle_frame(self, t_link_s: float) -> list[Output]:
-        """Nothing arrived by ``frame_idle_deadline_s``: the frame is complete (the service's
-        timer; replay closes it at the next message's stamp, handle)."""
-        out: list[Output] = []
-        if self.frames.idle_due(t_link_s):
-            self.frames.close_idle(out)
-        return out
-
     def mission_tick(self, t_link_s: float) -> list[Output]:
         """Mission download timeouts and retries (the service calls this on its timer)."""
         return self.goals.mission_tick(t_link_s)

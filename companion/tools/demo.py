@@ -177,7 +177,9 @@ async def wait_for(condition, what: str, timeout_s: float, children: list[Child]
                     return result
                 await asyncio.sleep(POLL_S)
     except TimeoutError:
-        raise DemoError(f"timed out after {timeout_s:.0f} s waiting for {what}") from None
+        tails = "".join(f"\n--- {child.name}, last lines:\n{child.stderr_tail()}"
+                        for child in children)
+        raise DemoError(f"timed out after {timeout_s:.0f} s waiting for {what}{tails}") from None
 
 
 async def command_until_accepted(link, msg_factory, name: str, children: list[Child],

@@ -11,7 +11,7 @@ import time
 import psutil
 import pytest
 
-from companion.tools.demo import DemoError, spawn
+from companion.tools.demo import DemoError, spawn, wait_for
 from tests.e2e.support import REPO, wait_until
 
 
@@ -163,6 +163,24 @@ def test_a_child_that_dies_early_is_reported_with_its_stderr(tmp_path):
         await child.proc.wait()
         child.check_alive()
     with pytest.raises(DemoError, match=r"fake exited early with code 2:\nbad scenario file"):
+        asyncio.run(scenario())
+
+
+def test_a_wait_that_times_out_shows_what_the_children_last_said(tmp_path):
+    """A flight that never arrives: the error carries each child's last stderr lines, so a run
+    that fails on someone else's machine (CI) says why without --keep."""
+    async def scenario():
+        child = await spawn("fake", [sys.executable, "-c",
+                                     "import sys, time; sys.stderr.write('heartbeat lost\\n'); "
+                                     "sys.stderr.flush(); time.sleep(30)"], tmp_path)
+        try:
+            wait_until(lambda: child.stderr_tail(), 10.0, "the child's first line")
+            await wait_for(lambda: None, "the vehicle to arrive", 0.3, [child])
+        finally:
+            child.proc.kill()
+            await child.proc.wait()
+    with pytest.raises(DemoError, match=r"(?s)timed out after 0 s waiting for the vehicle to "
+                                        r"arrive\n--- fake, last lines:\nheartbeat lost"):
         asyncio.run(scenario())
 
 

@@ -28,12 +28,12 @@ def test_frame_is_decided_on_once_idle_without_a_further_message():
     feed = idle_feed()
     assert feed.camera([Observation(30.0, 0.1, 7)]) == []          # in assembly
     first_report_s = feed.link_s
-    deadline = feed.p.frame_idle_deadline_s()
+    deadline = feed.p.frames.idle_deadline_s()
     assert deadline == pytest.approx(first_report_s + IDLE_S)
-    assert feed.p.close_idle_frame(deadline - 1e-4) == []          # not yet
+    assert feed.p.frames.close_if_idle(deadline - 1e-4) == []          # not yet
     assert feed.p.frames.assembly is not None
-    out = feed.p.close_idle_frame(deadline)
-    assert feed.p.frames.assembly is None and feed.p.frame_idle_deadline_s() is None
+    out = feed.p.frames.close_if_idle(deadline)
+    assert feed.p.frames.assembly is None and feed.p.frames.idle_deadline_s() is None
     assert feed.p.navigator.slam.landmark_ids() == [7]
     sps = setpoints(out)
     assert len(sps) == 1 and sps[0].t_s == pytest.approx(feed.t_s)
@@ -43,14 +43,14 @@ def test_idle_counts_from_the_frames_last_report():
     feed = idle_feed()
     feed.camera([Observation(30.0, 0.1, 7)])
     feed.send(codec.ObstacleFrame(1, 100, feed.t_s, (Observation(25.0, -0.2, 8),)), 0.003)
-    assert feed.p.frame_idle_deadline_s() == pytest.approx(feed.link_s + IDLE_S)
-    assert feed.p.close_idle_frame(feed.link_s + 0.004) == []
-    feed.p.close_idle_frame(feed.link_s + IDLE_S)
+    assert feed.p.frames.idle_deadline_s() == pytest.approx(feed.link_s + IDLE_S)
+    assert feed.p.frames.close_if_idle(feed.link_s + 0.004) == []
+    feed.p.frames.close_if_idle(feed.link_s + IDLE_S)
     assert sorted(feed.p.navigator.slam.landmark_ids()) == [7, 8]
 
 
 def test_a_report_after_the_idle_close_is_counted_and_dropped():
-    """The replay's view: nothing called close_idle_frame; the late report's stamp closes the
+    """The replay's view: nothing called frames.close_if_idle; the late report's stamp closes the
     frame first (as the live timer did), then the report is refused, its frame's chance taken."""
     feed = idle_feed()
     feed.camera([Observation(30.0, 0.1, 7)])
@@ -66,12 +66,12 @@ def test_a_report_after_the_idle_close_is_counted_and_dropped():
 
 
 def test_replay_of_the_stamps_closes_where_the_live_timer_did():
-    """Two pipelines, one closed by the timer (close_idle_frame), one fed the same stamps only:
+    """Two pipelines, one closed by the timer (frames.close_if_idle), one fed the same stamps only:
     the same setpoints, in the same order."""
     live, replay = idle_feed(), idle_feed()
     for feed in (live, replay):
         feed.camera([Observation(30.0, 0.1, 7)])
-    live.outputs += live.p.close_idle_frame(live.link_s + IDLE_S)
+    live.outputs += live.p.frames.close_if_idle(live.link_s + IDLE_S)
     for feed in (live, replay):
         feed.send(hb(), 0.01)
         for _ in range(3):
@@ -87,8 +87,8 @@ def test_off_by_default_a_frame_waits_for_the_next_message():
     for _ in range(3):
         feed.step()
     feed.camera([Observation(30.0, 0.1, 7)])
-    assert feed.p.frame_idle_deadline_s() is None
-    assert feed.p.close_idle_frame(feed.link_s + 10.0) == []
+    assert feed.p.frames.idle_deadline_s() is None
+    assert feed.p.frames.close_if_idle(feed.link_s + 10.0) == []
     assert feed.p.frames.assembly is not None
     feed.send(codec.ObstacleFrame(1, 100, feed.t_s, (Observation(25.0, -0.2, 8),)), 1.0)
     feed.send(hb())
