@@ -8,11 +8,11 @@ from companion.errors import CompanionError
 from companion.config.scenario import load_scenario
 from companion.sim.forest_worlds import FOREST_SPECS, world_figures
 from companion.sim.worlds import WORLD_KINDS, random_world
+from companion.sim.batch import available_cores, fly_runs
+from companion.tools.report import print_summary, write_json
+from companion.sim.simulation import aggregate, with_position_fusion, with_speed, with_vertical
 
 DEFAULT_SCENARIO = "config/scenarios/paper.yaml"
-from companion.tools.report import print_summary, write_json
-from companion.sim.simulation import (aggregate, run_once, with_position_fusion, with_speed,
-                                      with_vertical)
 
 
 def add_parser(sub) -> None:
@@ -38,6 +38,9 @@ def add_parser(sub) -> None:
                    help="avoidance in 3D or the 2D law, whatever the scenario's "
                         "avoidance.vertical says (default: the scenario's; the random worlds of "
                         "heights, lowwalls and mixed, turn it on unless the base says false)")
+    p.add_argument("--jobs", type=_positive_int, default=None,
+                   help="processes flying runs at once (default: the CPUs this process may use, "
+                        f"here {available_cores()}); the results do not depend on it")
     p.add_argument("--json", metavar="PATH", help="write {aggregate, runs} as JSON")
     p.add_argument("--plot", metavar="PATH", help="draw the first run as a PNG (paper's Figure 4)")
     p.set_defaults(handler=run)
@@ -66,12 +69,13 @@ def run(args: argparse.Namespace) -> int:
     scenario = with_vertical(scenario, None if args.vertical is None else args.vertical == "on")
     strategy = args.strategy or scenario.avoidance.strategy
     seeds = range(args.seed, args.seed + args.runs)
-    outcomes, worlds = [], []
+    worlds = [random_world(scenario, args.random_worlds, seed) if args.random_worlds else scenario
+              for seed in seeds]
     from tqdm import tqdm
-    for seed in tqdm(seeds, desc="simulate", unit="run", disable=args.runs < 2 or not sys.stderr.isatty()):
-        world = random_world(scenario, args.random_worlds, seed) if args.random_worlds else scenario
-        worlds.append(world)
-        outcomes.append(run_once(world, seed, strategy))
+    with tqdm(total=args.runs, desc="simulate", unit="run",
+              disable=args.runs < 2 or not sys.stderr.isatty()) as progress:
+        outcomes = fly_runs(worlds, seeds, strategy, args.jobs or available_cores(),
+                            on_done=progress.update)
     agg = aggregate(outcomes, scenario.avoidance.safety_distance_m)
     agg["strategy"] = strategy
     agg["scenario"] = f"random-{args.random_worlds}" if args.random_worlds else scenario.name
