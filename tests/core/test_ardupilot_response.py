@@ -20,7 +20,8 @@ from companion.config.loader import FieldError
 from companion.config.service import CommandingConfig
 from companion.core.avoidance.arc import VehicleLimits, fly_out
 from companion.core.avoidance.guidance import GuidanceCommand, shape_setpoint
-from companion.core.avoidance.jerk_shaping import shaped_step
+from companion.core.avoidance.jerk_shaping import (fly_copter_shaped, fly_copter_shaped_one,
+                                                   shaped_step)
 
 FLIGHT = Path(__file__).parent / "data" / "arducopter_guided_velocity.csv"
 ACCEL_MPS2, JERK_MPS3 = 2.5, 5.0          # WPNAV_ACCEL, PSC_JERK_XY defaults (copter-4.6.parm)
@@ -106,6 +107,30 @@ def test_a_jerk_limited_roll_out_brakes_and_turns_later():
                      np.array([5.0]), 4.0, fov) for lim in (plain, jerky)]
     one_s = 3                                # 1 s at the roll-out's 0.25 s step
     assert turns[1].positions[0, one_s, 1] < turns[0].positions[0, one_s, 1]
+
+
+def test_one_commands_shaped_roll_out_in_floats_is_the_arrays_bit_for_bit():
+    """fly_copter_shaped_one (J = 1, Python floats) against fly_copter_shaped (numpy, the same
+    command as the first of two): random motions, commands and limits, every position and speed
+    equal to the last bit, so a candidate's margin never depends on how many were rolled."""
+    rng = np.random.default_rng(7)
+    for _ in range(200):
+        lim = VehicleLimits(math.radians(rng.uniform(10.0, 90.0)), rng.uniform(1.0, 4.0),
+                            lateral_accel_limited=True, max_jerk_mps3=rng.uniform(2.0, 8.0))
+        motion = lim.motion(rng.uniform(0.0, 10.0), rng.uniform(-3.0, 3.0), rng.uniform(-3.0, 3.0))
+        heading, speed = rng.uniform(-3.2, 3.2), rng.uniform(0.0, 10.0)
+        start, fov = rng.uniform(-50.0, 50.0, 2), math.radians(rng.uniform(60.0, 120.0))
+        many = fly_copter_shaped(start, motion, np.array([heading, heading + 1.0]),
+                                 np.array([speed, 1.0]), 40, 24, fov, 0.25)
+        one = fly_copter_shaped_one(start, motion, heading, speed, 40, 24, fov, 0.25)
+        assert np.array_equal(one[0], many[0][:1]) and np.array_equal(one[1], many[1][:1])
+    lim = VehicleLimits(math.radians(30.0), ACCEL_MPS2, lateral_accel_limited=True,
+                        max_jerk_mps3=JERK_MPS3)
+    rolled = fly_out(np.zeros(2), lim.motion(5.0, 0.0, 0.0), np.array([0.7]), np.array([5.0]),
+                     4.0, math.radians(87.0))                      # fly_out takes the float path
+    both = fly_out(np.zeros(2), lim.motion(5.0, 0.0, 0.0), np.array([0.7, 0.0]),
+                   np.array([5.0, 5.0]), 4.0, math.radians(87.0))
+    assert np.array_equal(rolled.positions[0], both.positions[0])
 
 
 def turn(yaw_lead_s, nose_follows: bool):
