@@ -3,15 +3,20 @@
 from __future__ import annotations
 
 import json
+import subprocess
+import sys
 from pathlib import Path
 from types import SimpleNamespace
 
 import pytest
+import yaml
 
 from companion.tools import ardupilot_sitl as sitl
 from companion.__main__ import main
 from companion.mavlink.dialect import mavlink
-from companion.tools.autopilot_demo import service_config, sitl_home
+from companion.tools.autopilot_demo import (ARDUCOPTER_JERK_MPS3, ARDUCOPTER_YAW_LEAD_S,
+                                            service_config, sitl_home)
+from companion.tools.demo import demo_config
 from companion.config.scenario import load_scenario
 from companion.config.service import load_config
 from companion.core.flat_earth import to_lat_lon_deg, to_north_east_m
@@ -53,6 +58,30 @@ def test_the_filter_gets_the_autopilots_odometry_noise_and_the_scenarios_camera(
     assert real.yaw_bias_sigma_deg > 0.0 and PAPER.noise.yaw_bias_sigma_deg == 0.0
     assert estimator.range_sigma_m == PAPER.sensor.range_sigma_m
     assert estimator.bearing_sigma_deg == PAPER.sensor.bearing_sigma_deg
+
+
+def test_beside_arducopter_the_roll_outs_are_shaped_as_it_flies_unless_asked_not_to(tmp_path):
+    """The stub's demo plans unshaped (its truth takes a velocity within max_accel at once);
+    beside ArduCopter its jerk-limited response and yaw lag by default (the ceiling flight:
+    8.67 m unshaped, 11.49 m shaped, README issue 27), the base's own values if it sets them,
+    and --unshaped as on the stub."""
+    assert demo_config(PAPER).commanding.max_jerk_mps3 is None
+    shaped = service_config(PAPER, 10.0).commanding
+    assert (shaped.max_jerk_mps3, shaped.yaw_lead_s) == (ARDUCOPTER_JERK_MPS3,
+                                                         ARDUCOPTER_YAW_LEAD_S)
+    unshaped = service_config(PAPER, 10.0, shaped=False).commanding
+    assert (unshaped.max_jerk_mps3, unshaped.yaw_lead_s) == (None, None)
+    base = yaml.safe_load((REPO / "config" / "companion.yaml").read_text())
+    base["commanding"].update(max_jerk_mps3=8.0, yaw_lead_s=0.3)
+    (tmp_path / "base.yaml").write_text(yaml.safe_dump(base))
+    own = service_config(PAPER, 10.0, tmp_path / "base.yaml").commanding
+    assert (own.max_jerk_mps3, own.yaw_lead_s) == (8.0, 0.3)
+
+
+def test_unshaped_without_the_autopilot_is_refused():
+    done = subprocess.run([sys.executable, "-m", "companion", "demo", "--unshaped"], cwd=REPO,
+                          capture_output=True, text=True, timeout=60)
+    assert done.returncode == 2 and "--unshaped is --autopilot's" in done.stderr
 
 
 def test_flat_earth_round_trip():

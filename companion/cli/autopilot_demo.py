@@ -32,6 +32,10 @@ def add_autopilot_arguments(p: argparse.ArgumentParser) -> None:
                    help="boot: the service runs from SITL's boot (default, the workflow of "
                         "docs/real-vehicle.md); airborne: it starts once the takeoff altitude is "
                         "reached (a check of the harness without the takeoff phase)")
+    g.add_argument("--unshaped", action="store_true",
+                   help="plan as on the stub: no ArduCopter velocity shaping (jerk 5 m/s^3) "
+                        "and no yaw lead (0.5 s), which --autopilot otherwise "
+                        "uses where the --config leaves commanding.max_jerk_mps3 / yaw_lead_s null")
 
 
 def setup_from(args: argparse.Namespace):
@@ -47,7 +51,7 @@ def setup_from(args: argparse.Namespace):
         raise CompanionError(f"--takeoff-alt: expected 1 to 100 m, got {args.takeoff_alt:g}")
     return AutopilotSetup(Path(args.autopilot).resolve(), Path(defaults).resolve(),
                           args.takeoff_alt, args.service_start,
-                          resolve_config(args.config))
+                          resolve_config(args.config), shaped=not args.unshaped)
 
 
 def run_autopilot(args: argparse.Namespace, scenario_path: Path, scenario) -> int:

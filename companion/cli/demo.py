@@ -79,6 +79,8 @@ def run(args: argparse.Namespace) -> int:
     if args.lockstep_overlap and (not args.lockstep or args.autopilot):
         raise CompanionError("--lockstep-overlap is the stub's, in lock-step: not with "
                              "--no-lockstep or --autopilot")
+    if args.unshaped and not args.autopilot:
+        raise CompanionError("--unshaped is --autopilot's (the stub's flights are unshaped)")
     if args.autopilot:
         return run_autopilot(args, scenario_path, scenario)
     tlog = Path(args.tlog).resolve() if args.tlog else None

@@ -90,6 +90,7 @@ class AutopilotSetup:
     # what happened goes to WORKDIR/crash.json
     kill_at_north_m: float | None = None
     restart_after_s: float = 3.0
+    shaped: bool = True         # roll-outs as ArduCopter flies setpoints (service_config)
 
 
 @dataclass(frozen=True)
@@ -111,13 +112,32 @@ def sitl_home(scenario: Scenario) -> sitl.Home:
     return sitl.Home(lat, lon, origin.alt_m, start.yaw_deg % 360.0)
 
 
+# ArduCopter 4.6's velocity response (AC_PosControl shape_vel_accel_xy: the acceleration changes
+# at PSC_JERK_XY 5 m/s^3 by default) and the lead that makes up its ~0.3 s yaw lag (README,
+# issue 27; tests/core/test_ardupilot_response.py replays a recorded flight with them).
+ARDUCOPTER_JERK_MPS3 = 5.0
+ARDUCOPTER_YAW_LEAD_S = 0.5
+
+
 def service_config(scenario: Scenario, takeoff_alt_m: float,
-                   base_config: str | Path = "config/companion.yaml"):
+                   base_config: str | Path = "config/companion.yaml", shaped: bool = True):
     """The stub demo's service settings, with the goal as latitude/longitude (the service turns
     it into metres with the EKF origin it asks the autopilot for, as an operator's geo goal) and
-    the takeoff altitude the ground station will send."""
+    the takeoff altitude the ground station will send. ``shaped`` False: the roll-outs and yaw
+    of the stub demo (no jerk limit, no yaw lead), whatever the base says."""
     config = demo_config(scenario, base_config)
-    config = dataclasses.replace(config, estimator=vehicle_noise_of_the_autopilot(config.estimator))
+    # The stub's truth needs no shaping (demo_config turns it off); ArduCopter's response does:
+    # the base's commanding.max_jerk_mps3 and yaw_lead_s, or ArduCopter's own figures where it
+    # leaves them null (README, issue 27: the ceiling flight at x10, 8.67 m without, 11.49 with).
+    base = load_config(resolve_config(base_config)).commanding
+    config = dataclasses.replace(
+        config, estimator=vehicle_noise_of_the_autopilot(config.estimator),
+        commanding=dataclasses.replace(
+            config.commanding,
+            max_jerk_mps3=None if not shaped else ARDUCOPTER_JERK_MPS3
+            if base.max_jerk_mps3 is None else base.max_jerk_mps3,
+            yaw_lead_s=None if not shaped else ARDUCOPTER_YAW_LEAD_S
+            if base.yaw_lead_s is None else base.yaw_lead_s))
     origin, goal = scenario.world.origin, scenario.world.goal
     lat_deg, lon_deg = to_lat_lon_deg(origin.lat_deg, origin.lon_deg, goal.north_m, goal.east_m)
     return dataclasses.replace(
@@ -338,7 +358,7 @@ async def run_autopilot_demo(scenario_path: Path, scenario: Scenario, files: Aut
     """Fly the scenario on ArduPilot SITL; returns (the service's report moved into the scenario
     frame, its config, the truth records, the takeoff checks)."""
     sitl.check_files(setup.binary, setup.defaults)
-    config = service_config(scenario, setup.takeoff_alt_m, setup.base_config)
+    config = service_config(scenario, setup.takeoff_alt_m, setup.base_config, setup.shaped)
     files.config.write_text(yaml.safe_dump(config_to_dict(config)))
     files.sitl_dir.mkdir(parents=True, exist_ok=False)
     recorder = FlightRecorder(files.truth, scenario, config.link.camera_component_id,
