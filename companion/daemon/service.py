@@ -185,8 +185,7 @@ class Service:
             link.send(mission_codec.encode(output))
         elif isinstance(output, StreamsWanted):
             log.info("asking for telemetry streams: %s", output.reason)
-            self.streams.wanted.set()
-            self.streams.vehicle_changed.set()
+            self.streams.want()
         elif isinstance(output, ParamValue):
             link.send(param_codec.param_value(output))
         elif isinstance(output, ParamChange) and self.saver is not None:

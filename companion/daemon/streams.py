@@ -39,7 +39,7 @@ class StreamRequests:
         self.link = link
         self.pipeline = pipeline
         self.wanted = asyncio.Event()
-        self.vehicle_changed = asyncio.Event()   # set with 'wanted' (vehicle found): ask at once
+        self.vehicle_changed = asyncio.Event()   # set by want(): the geo reference asked at once
         self.acks: asyncio.Queue[codec.CommandAck] = asyncio.Queue(maxsize=16)
         self.odometry_seen = asyncio.Event()
         # The odometry streams' rates are watched (what the estimate and the setpoints run on);
@@ -49,6 +49,12 @@ class StreamRequests:
                                      streams.rate_check_s, streams.min_rate_fraction,
                                      streams.max_reasserts)
         self._rates_said = False
+
+    def want(self) -> None:
+        """Ask for the streams again, and for the EKF origin at once if it is still wanted
+        (vehicle found, heartbeat back, reboot)."""
+        self.wanted.set()
+        self.vehicle_changed.set()
 
     def on_event(self, event) -> None:
         """A received event: the vehicle's acks, odometry seen, the odometry streams counted."""

@@ -125,19 +125,19 @@ def service_config(scenario: Scenario, takeoff_alt_m: float,
     it into metres with the EKF origin it asks the autopilot for, as an operator's geo goal) and
     the takeoff altitude the ground station will send. ``shaped`` False: the roll-outs and yaw
     of the stub demo (no jerk limit, no yaw lead), whatever the base says."""
-    config = demo_config(scenario, base_config)
-    # The stub's truth needs no shaping (demo_config turns it off); ArduCopter's response does:
-    # the base's commanding.max_jerk_mps3 and yaw_lead_s, or ArduCopter's own figures where it
-    # leaves them null (README, issue 27: the ceiling flight at x10, 8.67 m without, 11.49 with).
-    base = load_config(resolve_config(base_config)).commanding
-    config = dataclasses.replace(
-        config, estimator=vehicle_noise_of_the_autopilot(config.estimator),
-        commanding=dataclasses.replace(
-            config.commanding,
-            max_jerk_mps3=None if not shaped else ARDUCOPTER_JERK_MPS3
-            if base.max_jerk_mps3 is None else base.max_jerk_mps3,
-            yaw_lead_s=None if not shaped else ARDUCOPTER_YAW_LEAD_S
-            if base.yaw_lead_s is None else base.yaw_lead_s))
+    config = demo_config(scenario, base_config, keep_shaping=shaped)
+    commanding = config.commanding
+    if shaped:
+        # ArduCopter's response, where the base leaves it null (README, issue 27: the ceiling
+        # flight at x10, 8.71 m unshaped, 11.47 m shaped)
+        commanding = dataclasses.replace(
+            commanding,
+            max_jerk_mps3=ARDUCOPTER_JERK_MPS3 if commanding.max_jerk_mps3 is None
+            else commanding.max_jerk_mps3,
+            yaw_lead_s=ARDUCOPTER_YAW_LEAD_S if commanding.yaw_lead_s is None
+            else commanding.yaw_lead_s)
+    config = dataclasses.replace(config, commanding=commanding,
+                                 estimator=vehicle_noise_of_the_autopilot(config.estimator))
     origin, goal = scenario.world.origin, scenario.world.goal
     lat_deg, lon_deg = to_lat_lon_deg(origin.lat_deg, origin.lon_deg, goal.north_m, goal.east_m)
     return dataclasses.replace(

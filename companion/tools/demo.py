@@ -76,9 +76,12 @@ class DemoFiles:
 
 
 def demo_config(scenario: Scenario, base_path: str | Path = "config/companion.yaml",
-                signing_key_file: Path | None = None) -> CompanionConfig:
+                signing_key_file: Path | None = None,
+                keep_shaping: bool = False) -> CompanionConfig:
     """The companion's settings for a scenario: its estimator, avoidance, goal and limits;
-    signed traffic with the key in ``signing_key_file`` (an absolute path) if given."""
+    signed traffic with the key in ``signing_key_file`` (an absolute path) if given.
+    ``keep_shaping``: the base's commanding.max_jerk_mps3 and yaw_lead_s stay (beside a real
+    autopilot); else both are off, as the stub's truth needs."""
     base = load_config(resolve_config(base_path))
     if signing_key_file is not None:
         base = dataclasses.replace(base, link=dataclasses.replace(
@@ -90,8 +93,10 @@ def demo_config(scenario: Scenario, base_path: str | Path = "config/companion.ya
         max_speed_mps=max(base.commanding.max_speed_mps, scenario.vehicle.speed_mps),
         max_turn_rate_deg_s=scenario.vehicle.max_turn_rate_deg_s,
         max_accel_mps2=scenario.vehicle.max_accel_mps2,
-        max_jerk_mps3=None,          # the stub's truth changes its velocity within max_accel at once
-        yaw_lead_s=None,             # ... and its nose reaches a setpoint's yaw within the step
+        # the stub's truth changes its velocity within max_accel at once, and its nose reaches a
+        # setpoint's yaw within the step
+        max_jerk_mps3=base.commanding.max_jerk_mps3 if keep_shaping else None,
+        yaw_lead_s=base.commanding.yaw_lead_s if keep_shaping else None,
         perception_delay_s=perception_delay_s(estimator, scenario))
     return dataclasses.replace(base, estimator=estimator,
                                avoidance=scenario.avoidance, commanding=commanding,

@@ -108,10 +108,13 @@ def fly_out(start_ne_m: np.ndarray, motion: Motion, headings_rad: np.ndarray,
             and motion.max_jerk_mps3 is not None:
         steps += extra_brake_steps(motion.max_accel_mps2, motion.max_jerk_mps3, STEP_S)
         times = STEP_S * np.arange(1, steps + 1)
-        shaped = fly_copter_shaped_one if j == 1 else fly_copter_shaped
-        positions, speeds = shaped(start, motion, float(headings[0]) if j == 1 else headings,
-                                   float(commanded[0]) if j == 1 else commanded, steps,
-                                   cruise_steps, fov_rad, STEP_S)
+        if j == 1:
+            positions, speeds = fly_copter_shaped_one(start, motion, float(headings[0]),
+                                                      float(commanded[0]), steps, cruise_steps,
+                                                      fov_rad, STEP_S)
+        else:
+            positions, speeds = fly_copter_shaped(start, motion, headings, commanded, steps,
+                                                  cruise_steps, fov_rad, STEP_S)
         return Rollout(times, positions, speeds)
     if motion.max_lateral_accel_mps2 is not None and motion.nose_rad is not None:
         positions, speeds = _fly_copter(start, motion, headings, commanded, steps, cruise_steps,

@@ -117,7 +117,6 @@ def fly_copter_shaped_one(start: np.ndarray, motion, heading: float, commanded: 
     north, east = float(start[0]), float(start[1])
     path: list[float] = []
     speeds: list[float] = []
-    set_n = set_e = 0.0
     for k in range(steps):
         if k < cruise_steps:
             error = (heading - nose + pi) % TWO_PI - pi
