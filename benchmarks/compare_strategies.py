@@ -26,7 +26,7 @@ def main() -> None:
     parser.add_argument("--strategies", nargs="+", default=["cone", "union", "apf"])
     args = parser.parse_args()
     base = load_scenario("config/scenarios/paper.yaml")
-    d = base.avoidance.safety_distance_m
+    d = base.safety_distance_m
     print("| worlds | strategy | success | collisions | closest approach p5 | median detour | wall s |")
     print("|---|---|---|---|---|---|---|")
     for kind in args.kinds:

@@ -46,7 +46,7 @@ def jittered_grid_world(base: Scenario, seed: int, density_per_ha: float) -> Sce
         & (np.abs(trees[:, 1]) <= spec.corridor_half_width_m)
     trees = trees[inside]
     radii = rng.uniform(*spec.radius_m, len(trees))
-    d = base.avoidance.safety_distance_m
+    d = base.safety_distance_m
     keep = (np.hypot(trees[:, 0], trees[:, 1]) > start_clearing_m(base, spec)) \
         & (np.hypot(trees[:, 0] - leg, trees[:, 1]) > d + spec.clearing_extra_m)
     obstacles = tuple(Obstacle(id=i + 1, north_m=float(p[0]), east_m=float(p[1]), radius_m=float(r))
@@ -67,7 +67,7 @@ def main() -> None:
     parser.add_argument("--rows", nargs="+", default=["grid400@5", "grid400@10", "grid800@3"])
     args = parser.parse_args()
     base = load_scenario("config/scenarios/forest.yaml")
-    d = base.avoidance.safety_distance_m
+    d = base.safety_distance_m
     print("| worlds | speed | seeds | success | collisions | centre clearance p5 (min) | "
           "surface min | median path | timed out | wall s |")
     print("|---|---|---|---|---|---|---|---|---|---|")

@@ -28,7 +28,7 @@ def main() -> None:
     parser.add_argument("--rows", nargs="+", default=list(ROWS))
     args = parser.parse_args()
     base = load_scenario("config/scenarios/forest.yaml")
-    d = base.avoidance.safety_distance_m
+    d = base.safety_distance_m
     print("| worlds | speed | runs | success | collisions | centre clearance p5 (min) | "
           "surface min | median path | timed out | wall s |")
     print("|---|---|---|---|---|---|---|---|---|---|")

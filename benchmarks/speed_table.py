@@ -30,7 +30,7 @@ def main() -> None:
     parser.add_argument("--rows", nargs="+", default=list(ROWS))
     args = parser.parse_args()
     base = load_scenario("config/scenarios/paper.yaml")
-    d = base.avoidance.safety_distance_m
+    d = base.safety_distance_m
     print("| worlds | speed | success | collisions | closest approach p5 (min) | median detour | wall s |")
     print("|---|---|---|---|---|---|---|")
     for row in args.rows:

@@ -105,6 +105,6 @@ def _plot(path: str, arrays: dict, scenario, title: str) -> None:
 
     from companion.sim.plot import plot_paths
     goal, start = scenario.world.goal, scenario.world.start
-    plot_paths(path, **arrays, safety_distance_m=scenario.avoidance.safety_distance_m,
+    plot_paths(path, **arrays, safety_distance_m=scenario.safety_distance_m,
                goal_ne=np.array([goal.north_m, goal.east_m]), title=title,
                start_ne=np.array([start.north_m, start.east_m]))

@@ -208,7 +208,7 @@ def plot_histograms(path: str, rows: list, sweep_name: str | None) -> None:
             ax.hist(values, bins=bins, histtype="step" if sweep_name else "bar", lw=1.5,
                     alpha=1.0 if sweep_name else 0.75, label=name)
         if key == "min_clearance_m":
-            for d in sorted({row.batch.scenario.avoidance.safety_distance_m for row in rows}):
+            for d in sorted({row.batch.scenario.safety_distance_m for row in rows}):
                 ax.axvline(d, color="red", ls=":", lw=1.2, label=f"safety distance d = {d:g} m")
         ax.set_xlabel(label)
         ax.set_ylabel("runs")

@@ -111,7 +111,7 @@ def run(args: argparse.Namespace) -> int:
 
         from companion.sim.plot import plot_paths
         goal = scenario.world.goal
-        plot_paths(args.plot, **arrays, safety_distance_m=scenario.avoidance.safety_distance_m,
+        plot_paths(args.plot, **arrays, safety_distance_m=scenario.safety_distance_m,
                    goal_ne=np.array([goal.north_m, goal.east_m]),
                    title=f"{scenario.name}: companion demo over MAVLink, seed {args.seed}",
                    start_ne=np.array([scenario.world.start.north_m, scenario.world.start.east_m]))

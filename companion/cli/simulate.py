@@ -76,8 +76,10 @@ def run(args: argparse.Namespace) -> int:
               disable=args.runs < 2 or not sys.stderr.isatty()) as progress:
         outcomes = fly_runs(worlds, seeds, strategy, args.jobs or available_cores(),
                             on_done=progress.update)
-    agg = aggregate(outcomes, scenario.avoidance.safety_distance_m)
+    agg = aggregate(outcomes, scenario.safety_distance_m)
     agg["strategy"] = strategy
+    if scenario.avoidance.safety_distance_rest_m is not None:    # d set by the cruise speed
+        agg["safety_distance_m"] = scenario.safety_distance_m
     agg["scenario"] = f"random-{args.random_worlds}" if args.random_worlds else scenario.name
     if args.random_worlds in FOREST_SPECS:         # the drawn forests' density and spacing
         agg["forest"] = world_figures(worlds, args.random_worlds)

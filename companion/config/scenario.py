@@ -75,16 +75,16 @@ class Scenario:
             if obs.moving:
                 continue
             gap = math.hypot(goal.north_m - obs.north_m, goal.east_m - obs.east_m)
-            if gap <= self.avoidance.safety_distance_m:
+            if gap <= self.safety_distance_m:
                 raise FieldError("world.goal", f"the goal lies within the safety distance "
-                                 f"({self.avoidance.safety_distance_m} m) of obstacle {obs.id}: "
+                                 f"({self.safety_distance_m} m) of obstacle {obs.id}: "
                                  "no safe path can end there")
         goal_ne = np.array([goal.north_m, goal.east_m])
         for kind, shape in self.world.shapes():
             if shapes.polygon_distance_m(goal_ne, shape.corners_ne())[0] <= \
-                    self.avoidance.safety_distance_m:
+                    self.safety_distance_m:
                 raise FieldError("world.goal", f"the goal lies within the safety distance "
-                                 f"({self.avoidance.safety_distance_m} m) of {kind} {shape.id}'s "
+                                 f"({self.safety_distance_m} m) of {kind} {shape.id}'s "
                                  "surface: no safe path can end there")
         if self.avoidance.goal_look_deg is not None:
             if self.vehicle.kind != "multicopter":
@@ -161,6 +161,12 @@ class Scenario:
 
     def guidance_params(self) -> GuidanceParams:
         return self.avoidance.guidance_params(self.vehicle.speed_mps, self.world.goal.radius_m)
+
+    @property
+    def safety_distance_m(self) -> float:
+        """d for this scenario's cruise speed (avoidance.safety_distance_at): what its flights
+        keep and are scored against."""
+        return self.avoidance.safety_distance_at(self.vehicle.speed_mps)
 
     def goal_look_params(self) -> GoalLookParams | None:
         """avoidance.goal_look_deg with the scenario's camera (the velocity choice's view)."""

@@ -26,9 +26,14 @@ from companion.core.estimator_options import EstimatorOptions
 
 @dataclass(frozen=True)
 class AvoidanceConfig:
-    safety_distance_m: float
+    safety_distance_m: float              # d: at every cruise speed, or with the two keys below at
+                                          # safety_full_speed_mps and faster
     horizon_s: float
     eta: float
+    # d that grows with the cruise speed (forests): d(v) = rest + (safety_distance_m - rest) x
+    # v / full for a cruise v below full (safety_distance_at). Both or neither; None: d fixed.
+    safety_distance_rest_m: float | None = None
+    safety_full_speed_mps: float | None = None
     strategy: Literal["cone", "union", "apf"] = "union"
     mission_time_s: float | None = None
     inflation_sigmas: float = 0.0
@@ -71,6 +76,17 @@ class AvoidanceConfig:
 
     def __post_init__(self) -> None:
         require_positive("safety_distance_m", self.safety_distance_m)
+        given, missing = (("safety_distance_rest_m", "safety_full_speed_mps")
+                          if self.safety_full_speed_mps is None else
+                          ("safety_full_speed_mps", "safety_distance_rest_m"))
+        require((self.safety_distance_rest_m is None) == (self.safety_full_speed_mps is None),
+                given, getattr(self, given), f"null, or a value together with {missing} "
+                                             "(the speed law of d takes both)")
+        if self.safety_distance_rest_m is not None:
+            require(0.0 < self.safety_distance_rest_m <= self.safety_distance_m,
+                    "safety_distance_rest_m", self.safety_distance_rest_m,
+                    f"a distance in (0, safety_distance_m = {self.safety_distance_m:g}] m")
+            require_positive("safety_full_speed_mps", self.safety_full_speed_mps)
         require_positive("min_altitude_m", self.min_altitude_m)
         require(self.max_altitude_m > self.min_altitude_m, "max_altitude_m", self.max_altitude_m,
                 f"an altitude above min_altitude_m ({self.min_altitude_m:g} m)")
@@ -99,6 +115,19 @@ class AvoidanceConfig:
                     "apf_influence_m"):
             require_positive(key, getattr(self, key))
 
+    def safety_distance_at(self, cruise_speed_mps: float) -> float:
+        """d for a flight at this cruise speed: safety_distance_m, or with the speed law (both
+        keys set) rest + (safety_distance_m - rest) x cruise / full, up to safety_distance_m.
+
+        Why a law: the distance inside d that a flight loses to its perception delay and its
+        tracking error grows with its speed, while the gaps a slow flight must pass stay as
+        narrow (docs/forest.md: 800 trees per ha leave 1.61-1.76 m from the centres)."""
+        rest = self.safety_distance_rest_m
+        if rest is None or self.safety_full_speed_mps is None:
+            return self.safety_distance_m
+        fraction = min(max(cruise_speed_mps, 0.0) / self.safety_full_speed_mps, 1.0)
+        return rest + (self.safety_distance_m - rest) * fraction
+
     def union_params(self, sensor_fov_rad: float = math.radians(90.0)) -> UnionParams:
         fov = math.radians(self.camera_fov_deg) if self.camera_fov_deg is not None else sensor_fov_rad
         return UnionParams(lookahead_s=self.lookahead_s, hysteresis=self.hysteresis, fov_rad=fov,
@@ -124,7 +153,8 @@ class AvoidanceConfig:
 
     def guidance_params(self, cruise_speed_mps: float, goal_radius_m: float) -> GuidanceParams:
         return GuidanceParams(
-            cruise_speed_mps=cruise_speed_mps, safety_distance_m=self.safety_distance_m,
+            cruise_speed_mps=cruise_speed_mps,
+            safety_distance_m=self.safety_distance_at(cruise_speed_mps),
             horizon_s=self.horizon_s, eta=self.eta, goal_radius_m=goal_radius_m,
             mission_time_s=self.mission_time_s, inflation_sigmas=self.inflation_sigmas,
             approach_decel_mps2=self.approach_decel_mps2,

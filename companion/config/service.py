@@ -322,6 +322,11 @@ class CompanionConfig:
         return self.avoidance.guidance_params(self.commanding.cruise_speed_mps, goal_radius_m)
 
     @property
+    def safety_distance_m(self) -> float:
+        """d at the service's cruise speed (avoidance.safety_distance_at)."""
+        return self.avoidance.safety_distance_at(self.commanding.cruise_speed_mps)
+
+    @property
     def camera_fov_rad(self) -> float:
         """The camera's field of view: avoidance.camera_fov_deg, else estimator.sensor_fov_deg,
         else 90 degrees."""
@@ -354,7 +359,7 @@ class CompanionConfig:
         if not self.avoidance.look_at_threats:
             return None
         return LookAtParams(self.camera_fov_rad, self.avoidance.lookahead_s,
-                            2.0 * self.avoidance.safety_distance_m)
+                            2.0 * self.safety_distance_m)
 
 
 def load_config(path: str | Path) -> CompanionConfig:

@@ -46,7 +46,7 @@ class ServiceHeights:
         self.extent = ExtentParams(perception.vfov_rad(SERVICE_VFOV_DEG),
                                    perception.ground_margin_m) if self.on else None
         self._params = VerticalParams(
-            safety_distance_m=avoidance.safety_distance_m, cruise_altitude_m=math.nan,
+            safety_distance_m=config.safety_distance_m, cruise_altitude_m=math.nan,
             max_vertical_speed_mps=config.safety.max_vertical_speed_mps,
             min_altitude_m=avoidance.min_altitude_m, max_altitude_m=avoidance.max_altitude_m,
             cruise_speed_mps=config.commanding.cruise_speed_mps,

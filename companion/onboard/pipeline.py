@@ -114,7 +114,7 @@ class Pipeline:
         self.ap_yaw_rad: float | None = None        # autopilot yaw at the last odometry sample
         self.ap_speed_mps = 0.0                     # ground speed at the last odometry sample
         # a start that finds the vehicle armed: hold and look round first (onboard/look_around.py)
-        self.look_around = LookAround(config.restart.params(config.avoidance.safety_distance_m))
+        self.look_around = LookAround(config.restart.params(config.safety_distance_m))
         self.started_t_s: float | None = None
         self.phase = FlightPhase(config.flight.params())
         self.vertical = VerticalHold(config.flight.params())

@@ -55,7 +55,7 @@ MAX_TRIES_PER_TREE = 200
 def start_clearing_m(base: Scenario, spec: ForestSpec) -> float:
     """No tree this close to the start: d + clearing_extra_m, or d + the stopping distance of a
     vehicle that starts cruising (its perception delay, then braking), whichever is more."""
-    d = base.avoidance.safety_distance_m
+    d = base.safety_distance_m
     stop = stopping_distance_m(base.vehicle.speed_mps,
                                perception_delay_s(base.estimator_config(), base),
                                base.vehicle.max_accel_mps2)
@@ -96,7 +96,7 @@ def forest_world(base: Scenario, seed: int, kind: str = "forest") -> Scenario:
     count = int(round(spec.density_per_ha * area_m2 / SQUARE_M_PER_HA))
     trees = poisson_disc(rng, lo, hi, count, spec.min_spacing_m)
     radii = rng.uniform(*spec.radius_m, len(trees))
-    d = base.avoidance.safety_distance_m
+    d = base.safety_distance_m
     start_gap = np.hypot(trees[:, 0], trees[:, 1])
     goal_gap = np.hypot(trees[:, 0] - leg, trees[:, 1])
     keep = (start_gap > start_clearing_m(base, spec)) & (goal_gap > d + spec.clearing_extra_m)
@@ -150,7 +150,7 @@ def lane_forest(base: Scenario, leg_m: float, seed: int, density_per_ha: float =
     hi = np.array([leg_m + spec.margin_m, spec.corridor_half_width_m])
     count = int(round(density_per_ha * float(np.prod(hi - lo)) / SQUARE_M_PER_HA))
     trees = poisson_disc(rng, lo, hi, count, spec.min_spacing_m)
-    lane = base.avoidance.safety_distance_m + lane_extra_m
+    lane = base.safety_distance_m + lane_extra_m
     trees = trees[(np.abs(trees[:, 1]) > lane) & (np.hypot(trees[:, 0], trees[:, 1]) > 10.0)]
     radii = rng.uniform(*spec.radius_m, len(trees))
     world = World(start=StartPose(0.0, 0.0, 0.0), goal=Goal(float(leg_m), 0.0, base.world.goal.radius_m),

@@ -96,7 +96,7 @@ def plot_run(path: str | Path, scenario, outcome, title: str) -> None:
         est_ne=np.array(outcome.trace.est_pose).reshape(-1, 3)[:, :2],
         obstacles_ne=outcome.obstacles,
         obstacle_radii=np.array([o.radius_m for o in world.obstacles]),
-        safety_distance_m=scenario.avoidance.safety_distance_m,
+        safety_distance_m=scenario.safety_distance_m,
         goal_ne=np.array([world.goal.north_m, world.goal.east_m]),
         landmarks_ne=outcome.landmarks, landmark_covs=outcome.landmark_covs,
         title=title, start_ne=np.array([world.start.north_m, world.start.east_m]),

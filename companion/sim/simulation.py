@@ -92,7 +92,7 @@ def vertical_params(scenario: Scenario) -> VerticalParams | None:
     if not avoidance.vertical:
         return None
     return VerticalParams(
-        safety_distance_m=avoidance.safety_distance_m,
+        safety_distance_m=scenario.safety_distance_m,
         cruise_altitude_m=scenario.world.start.alt_m,
         max_vertical_speed_mps=scenario.vehicle.max_vertical_speed_mps,
         min_altitude_m=avoidance.min_altitude_m, max_altitude_m=avoidance.max_altitude_m,
@@ -122,7 +122,7 @@ def look_at_params(scenario: Scenario) -> LookAtParams | None:
     if not avoidance.look_at_threats or scenario.vehicle.kind != "multicopter":
         return None
     return LookAtParams(avoidance.union_params(scenario.sensor.fov_rad).fov_rad,
-                        avoidance.lookahead_s, 2.0 * avoidance.safety_distance_m)
+                        avoidance.lookahead_s, 2.0 * scenario.safety_distance_m)
 
 
 def perception_delay_s(est, scenario: Scenario) -> float:

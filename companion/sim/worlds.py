@@ -78,7 +78,7 @@ def random_world(base: Scenario, kind: str, seed: int) -> Scenario:
     spec = KINDS[kind]
     rng = np.random.default_rng([seed, 0x5EED])     # independent of the run's noise stream
     leg = rng.uniform(*spec.leg_m)
-    d = base.avoidance.safety_distance_m
+    d = base.safety_distance_m
     keep_out = d + max(spec.clear_of_ends_m, start_stopping_m(base))
     wanted = int(rng.integers(spec.count[0], spec.count[1] + 1))
     centres: list[np.ndarray] = []
@@ -157,7 +157,7 @@ def traffic_world(base: Scenario, kind: str, mover_speed_mps: float | None = Non
                                vel_north_mps=float(vel[0]), vel_east_mps=float(vel[1])))
         next_id += 1
     # a mover's circle may not start over the vehicle: the flight could not begin
-    d = base.avoidance.safety_distance_m
+    d = base.safety_distance_m
     movers = [m for m in movers if math.hypot(m.north_m, m.east_m) > 2.0 * d]
     new_world = dataclasses.replace(world.world, obstacles=world.world.obstacles + tuple(movers))
     return dataclasses.replace(world, name=f"{name or kind}-{seed}", world=new_world)
@@ -188,7 +188,7 @@ def gate_world(base: Scenario, seed: int, margin_m: float | None = None) -> Scen
     """A 160 m wall of posts across a 200 m leg with one gate whose safety circles leave 2 to 4 m
     (centre to centre 2 d + 2 to 4 m, or 2 d + ``margin_m``), 0 to 20 m off the straight line."""
     rng = np.random.default_rng([seed, 0x6A7E])
-    d = base.avoidance.safety_distance_m
+    d = base.safety_distance_m
     leg, wall_north = 200.0, 100.0
     width = 2.0 * d + rng.uniform(2.0, 4.0)
     if margin_m is not None:
@@ -256,7 +256,7 @@ def urban_world(base: Scenario, seed: int) -> Scenario:
     (sensor.form sectors or both), as the scenario itself checks."""
     rng = np.random.default_rng([seed, 0x0B1D])
     leg = float(rng.uniform(*URBAN_LEG_M))
-    d = base.avoidance.safety_distance_m
+    d = base.safety_distance_m
     keep_out = d + max(15.0, start_stopping_m(base))
     gap = 2.0 * d + URBAN_GAP_EXTRA_M
     ends = np.array([[0.0, 0.0], [leg, 0.0]])

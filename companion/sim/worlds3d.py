@@ -42,7 +42,7 @@ def _keep_out_m(base: Scenario) -> float:
     stopping = stopping_distance_m(base.vehicle.speed_mps,
                                    perception_delay_s(base.estimator_config(), base),
                                    base.vehicle.max_accel_mps2)
-    return base.avoidance.safety_distance_m + max(15.0, stopping)
+    return base.safety_distance_m + max(15.0, stopping)
 
 
 def _finish(base: Scenario, name: str, leg: float, obstacles: list[Obstacle]) -> Scenario:
@@ -68,7 +68,7 @@ def lowwalls_world(base: Scenario, seed: int) -> Scenario:
     another: the way round a tower is open, the way round a wall long."""
     rng = np.random.default_rng([seed, 0x10A11])
     leg = float(rng.uniform(*LOWWALL_LEG_M))
-    d = base.avoidance.safety_distance_m
+    d = base.safety_distance_m
     keep_out = _keep_out_m(base)
     first, last = keep_out + 10.0, leg - keep_out - 10.0
     walls: list[float] = []
@@ -113,7 +113,7 @@ def mixed_world(base: Scenario, seed: int) -> Scenario:
     (plus 4 m) clear of anything else."""
     rng = np.random.default_rng([seed, 0x313ED])
     leg = float(rng.uniform(*MIXED_LEG_M))
-    d = base.avoidance.safety_distance_m
+    d = base.safety_distance_m
     keep_out = _keep_out_m(base)
     ends = np.array([[0.0, 0.0], [leg, 0.0]])
     items: list[tuple[np.ndarray, float]] = []     # (centre, footprint radius) of posts and blocks

@@ -79,7 +79,7 @@ class Row:
 
     def aggregate(self) -> dict:
         agg = aggregate_summaries(self.summaries, [r.pose_nees for r in self.results],
-                                  self.batch.scenario.avoidance.safety_distance_m)
+                                  self.batch.scenario.safety_distance_m)
         agg["strategy"] = self.batch.strategy
         agg["scenario"] = self.batch.label
         return agg

@@ -156,7 +156,7 @@ def landmark_errors(landmarks: list[dict], obstacles: list[dict]) -> list[float]
 
 
 def demo_result(summary: dict, nees: list[float], scenario: Scenario) -> dict:
-    agg = aggregate_summaries([summary], [nees], scenario.avoidance.safety_distance_m)
+    agg = aggregate_summaries([summary], [nees], scenario.safety_distance_m)
     agg["strategy"] = scenario.avoidance.strategy
     agg["scenario"] = scenario.name
     return {"aggregate": agg, "runs": [summary]}

@@ -188,7 +188,7 @@ def plot_replay(path: str | Path, result: ReplayResult) -> None:
         track[-1] if len(track) else np.zeros(2))
     plot_paths(path, true_ne=np.zeros((0, 2)), est_ne=track, obstacles_ne=np.zeros((0, 2)),
                obstacle_radii=np.zeros(0),
-               safety_distance_m=result.config.avoidance.safety_distance_m, goal_ne=goal_ne,
+               safety_distance_m=result.config.safety_distance_m, goal_ne=goal_ne,
                landmarks_ne=landmarks, landmark_covs=covs,
                title=f"replay of {result.path.name}",
                start_ne=track[0] if len(track) else None)

@@ -43,7 +43,9 @@ def print_summary(report: dict, out: TextIO) -> None:
     err = agg.get("final_position_error_m", {})
     lines = [
         f"runs: {agg.get('runs')}   success rate: {_fmt(agg.get('success_rate'))}"
-        f"   collision rate: {_fmt(agg.get('collision_rate'))}",
+        f"   collision rate: {_fmt(agg.get('collision_rate'))}"
+        + (f"   (success: arrived, never within 0.95 d, d = {agg['safety_distance_m']:.2f} m)"
+           if "safety_distance_m" in agg else ""),
         f"closest approach to an obstacle centre (a wall's or building's surface): "
         f"min {_fmt(clear.get('min'), ' m')}, "
         f"p5 {_fmt(clear.get('p5'), ' m')}, median {_fmt(clear.get('median'), ' m')}",

@@ -115,7 +115,7 @@ def feed_state(pipeline, seq: int, cursor: PathCursor) -> dict:
         "safe_action": pipeline.safe_reason,
         "goal_ne_m": list(pipeline.goal_ne) if pipeline.goal_ne is not None else None,
         "goal_radius_m": pipeline.goal.radius_m if pipeline.goal is not None else None,
-        "safety_distance_m": config.avoidance.safety_distance_m,
+        "safety_distance_m": config.safety_distance_m,
         "estimator": None, "radius_2sigma_m": None, "pose": None, "path_ne_m": [],
         "landmarks": [], "movers": [], "command": None, "blocked": [], "sectors": SECTORS,
         "setpoints": pipeline.setpoints,
