@@ -387,11 +387,7 @@ def clearance(rollout: Rollout, obstacles: np.ndarray, radii: np.ndarray,
     j = rollout.positions.shape[0]
     if len(obstacles) == 0:
         return np.full(j, np.inf)
-    t = rollout.times_s
-    centres = obstacles[None, :, :] + (np.zeros((1, 1, 2)) if velocities is None
-                                       else t[:, None, None] * velocities[None, :, :])  # (N, n, 2)
-    grown = radii[None, :] + (0.0 if growth_mps is None
-                              else np.minimum(t[:, None] * growth_mps[None, :], MAX_GROWTH_M))
+    centres, grown = _obstacles_at(rollout.times_s, obstacles, radii, velocities, growth_mps)
     # north and east apart: no (J, N, n, 2) array of gaps
     north = rollout.positions[:, :, 0][:, :, None] - centres[None, :, :, 0]            # (J,N,n)
     east = rollout.positions[:, :, 1][:, :, None] - centres[None, :, :, 1]
@@ -403,16 +399,27 @@ def clearance(rollout: Rollout, obstacles: np.ndarray, radii: np.ndarray,
     return margin.min(axis=1)
 
 
+def _obstacles_at(times_s: np.ndarray, obstacles: np.ndarray, radii: np.ndarray,
+                  velocities: np.ndarray | None, growth_mps: np.ndarray | None
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """The obstacles' centres (N, n, 2) and safety radii (N, n) at the roll-out's times (N,); a
+    length 1 where they do not change: static centres and ungrown radii as they are. (Adding
+    zeros to them, as this once did, can change only a zero's sign: hypot ignores signs, and a
+    distance less +0.0 or -0.0 is the same float; the same margins, fewer arrays.)"""
+    centres = obstacles[None, :, :] if velocities is None \
+        else obstacles[None, :, :] + times_s[:, None, None] * velocities[None, :, :]
+    grown = radii[None, :] if growth_mps is None \
+        else radii[None, :] + np.minimum(times_s[:, None] * growth_mps[None, :], MAX_GROWTH_M)
+    return centres, grown
+
+
 def margins_by_obstacle(rollout: Rollout, obstacles: np.ndarray, radii: np.ndarray,
                         velocities: np.ndarray | None = None,
                         growth_mps: np.ndarray | None = None
                         ) -> tuple[np.ndarray, np.ndarray]:
     """For one rolled-out path (J = 1): each obstacle's smallest margin (n,) and its time (n,)."""
     t = rollout.times_s
-    centres = obstacles[None, :, :] + (np.zeros((1, 1, 2)) if velocities is None
-                                       else t[:, None, None] * velocities[None, :, :])
-    grown = radii[None, :] + (0.0 if growth_mps is None
-                              else np.minimum(t[:, None] * growth_mps[None, :], MAX_GROWTH_M))
+    centres, grown = _obstacles_at(t, obstacles, radii, velocities, growth_mps)
     gaps = rollout.positions[0][:, None, :] - centres
     margin = np.hypot(gaps[..., 0], gaps[..., 1]) - grown                            # (N, n)
     worst = margin.argmin(axis=0)
