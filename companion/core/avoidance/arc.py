@@ -21,6 +21,10 @@ brakes straight. The arc above was 2.7 to 20 m off that flight at 5 to 15 m/s (i
 turned while braking, its speed kept up in a turn), and at 10 m/s the choice took turns it
 could not fly and then braked straight into a safety circle (tests/core/test_copter_rollout.py).
 
+Why over 400 lines: each roll-out is written twice, on arrays and in Python floats for one
+command (the most frequent call), and the two must stay the same operations in the same order
+to the last bit (tests/core/test_fly_out.py); side by side, a change to one is seen in the other.
+
 Pure numpy; times in seconds, positions north/east metres, headings LOCAL_NED yaw (rad).
 """
 from __future__ import annotations
