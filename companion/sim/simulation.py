@@ -10,7 +10,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from filterpy.stats import NEES
+import scipy.linalg
 
 from companion.config.scenario import Scenario
 from companion.core.perception.blobs import BlobParams, blob_observations
@@ -141,10 +141,15 @@ def vehicle_limits(scenario: Scenario) -> VehicleLimits:
 
 
 def pose_nees(true_pose: np.ndarray, est_pose: np.ndarray, cov: np.ndarray) -> float:
-    """Pose NEES, e^T P^-1 e with the yaw error wrapped (filterpy's NEES; offline only)."""
+    """Pose NEES, e^T P^-1 e with the yaw error wrapped (offline only): filterpy's NEES for one
+    estimate written out, ``np.dot(x.T, inv(P)).dot(x)`` with scipy's inverse, the same bits
+    (tests/test_simulate_nees.py), without its batch's list and arrays; a non-finite
+    covariance is refused here as scipy would, more cheaply than its wrapper checks."""
     error = true_pose - est_pose
     error[2] = wrap_angle(error[2])
-    return float(NEES(error[None, :], np.zeros((1, 3)), cov[None, :, :])[0])
+    if not np.isfinite(cov).all():
+        raise ValueError("array must not contain infs or NaNs")
+    return float(np.dot(error, scipy.linalg.inv(cov, check_finite=False)).dot(error))
 
 
 def with_position_fusion(scenario: Scenario, position_fusion: str | None) -> Scenario:

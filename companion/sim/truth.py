@@ -288,9 +288,12 @@ class TruthWorld:
             over = np.maximum(np.maximum(alt - self.obstacle_tops_m, self.obstacle_bases_m - alt),
                               0.0)
             centres = gaps + self.obstacle_radii
-            centre_m = float(np.where(over > 0.0, np.hypot(centres, over), centres).min())
-            surface_m = float(np.where(over > 0.0, np.hypot(np.maximum(gaps, 0.0), over),
-                                       gaps).min())
+            if (over > 0.0).any():
+                centre_m = float(np.where(over > 0.0, np.hypot(centres, over), centres).min())
+                surface_m = float(np.where(over > 0.0, np.hypot(np.maximum(gaps, 0.0), over),
+                                           gaps).min())
+            else:           # beside every obstacle (every step in 2D): what the where()s pick
+                centre_m, surface_m = float(centres.min()), float(gaps.min())
         shape_m = math.inf
         for corners, (base, top) in zip(self.shape_corners, self.shape_extents_m):
             gap = float(shapes.polygon_distance_m(position, corners)[0])
@@ -305,10 +308,12 @@ class TruthWorld:
         sensor = self.scenario.sensor
         rng = self.rng
         frame = []
-        for i, (oid, centre) in enumerate(zip(self.obstacle_ids, self.obstacle_positions())):
-            d = centre - self.pose[:2]
-            range_m = math.hypot(d[0], d[1])
-            bearing = wrap_angle(math.atan2(d[1], d[0]) - self.pose[2])
+        # every obstacle's offset in one subtraction (per row, the same one), as Python floats
+        offsets = (self.obstacle_positions() - self.pose[:2]).tolist()
+        yaw = self.pose[2]
+        for i, (oid, (d_north, d_east)) in enumerate(zip(self.obstacle_ids, offsets)):
+            range_m = math.hypot(d_north, d_east)
+            bearing = wrap_angle(math.atan2(d_east, d_north) - yaw)
             if not is_visible(range_m, bearing, sensor.fov_rad, sensor.max_range_m):
                 continue
             heights = self._seen_heights(range_m, self.obstacle_bases_m[i],

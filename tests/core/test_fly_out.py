@@ -89,3 +89,25 @@ def test_first_passing_gives_the_all_at_once_answer():
         assert ahead == (int(forward[0]) if forward.size else None)
         first, _ = _first_passing(order, skip, lambda idx: margins[idx], offset, False)
         assert first == (int(ok[0]) if ok.size else None)
+
+
+def test_one_command_in_floats_is_the_plain_roll_out_on_straight_legs_too():
+    """_fly_one's shortcuts (cos and sin kept along a straight leg, a steady cruise repeated):
+    random commands, some already flown (heading and speed as commanded, from the first step),
+    some at rest or reversing; every position and speed equal to the last bit."""
+    rng = np.random.default_rng(29)
+    for case in range(300):
+        lateral = None if case % 2 else float(rng.uniform(1.0, 4.0))
+        course, now_mps = float(rng.uniform(-math.pi, math.pi)), float(rng.uniform(0.0, 12.0))
+        motion = Motion(math.radians(rng.uniform(10.0, 90.0)), rng.uniform(1.0, 4.0), now_mps,
+                        course, lateral)
+        heading, speed = course, now_mps                         # steady from the first step
+        if case % 3 == 1:
+            heading, speed = float(rng.uniform(-3.2, 3.2)), float(rng.uniform(0.0, 15.0))
+        elif case % 3 == 2:
+            heading, speed = course + float(rng.choice([0.0, 1e-3, math.pi])), 0.0
+        start = rng.uniform(-50.0, 50.0, 2)
+        horizon_s, fov = float(rng.uniform(1.0, 8.0)), math.radians(rng.uniform(60.0, 180.0))
+        p, s = plain_fly_out(start, motion, np.array([heading]), np.array([speed]), horizon_s, fov)
+        one = fly_out(start, motion, np.array([heading]), np.array([speed]), horizon_s, fov)
+        assert np.array_equal(one.positions, p) and np.array_equal(one.speeds, s)

@@ -21,10 +21,15 @@ brakes straight. The arc above was 2.7 to 20 m off that flight at 5 to 15 m/s (i
 turned while braking, its speed kept up in a turn), and at 10 m/s the choice took turns it
 could not fly and then braked straight into a safety circle (tests/core/test_copter_rollout.py).
 
+Why over 400 lines: each roll-out is written twice, on arrays and in Python floats for one
+command (the most frequent call), and the two must stay the same operations in the same order
+to the last bit (tests/core/test_fly_out.py); side by side, a change to one is seen in the other.
+
 Pure numpy; times in seconds, positions north/east metres, headings LOCAL_NED yaw (rad).
 """
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -92,6 +97,25 @@ class Rollout:
     speeds: np.ndarray
 
 
+@functools.lru_cache(maxsize=None)
+def step_times(steps: int) -> np.ndarray:
+    """(steps,) a roll-out's times, STEP_S * (1 .. steps): made once per length and shared by
+    every Rollout of that length, so read-only (a few lengths only: the horizon and the top
+    speed's braking steps)."""
+    times = STEP_S * np.arange(1, steps + 1)
+    times.flags.writeable = False
+    return times
+
+
+def _top_command(commanded: np.ndarray) -> float:
+    """``commanded.max(initial=0.0)`` as a float (fly_out's step count); one command is read
+    in plain floats: 0.0 unless it is greater, or NaN, as numpy's maximum takes it."""
+    if len(commanded) == 1:
+        command = float(commanded[0])
+        return 0.0 if 0.0 >= command else command
+    return float(commanded.max(initial=0.0))
+
+
 def fly_out(start_ne_m: np.ndarray, motion: Motion, headings_rad: np.ndarray,
             speeds_mps: np.ndarray, horizon_s: float, fov_rad: float) -> Rollout:
     """Roll J commands (headings (J,), speeds (J,)) forward ``horizon_s``, then brake to rest."""
@@ -99,15 +123,14 @@ def fly_out(start_ne_m: np.ndarray, motion: Motion, headings_rad: np.ndarray,
     commanded = np.asarray(speeds_mps, dtype=float)
     j = len(headings)
     dv = motion.max_accel_mps2 * STEP_S
-    top = max(float(commanded.max(initial=0.0)), motion.speed_mps)
+    top = max(_top_command(commanded), motion.speed_mps)
     steps = int(math.ceil(horizon_s / STEP_S)) + int(math.ceil(top / max(dv, 1e-9)))
     cruise_steps = int(math.ceil(horizon_s / STEP_S))
     start = np.asarray(start_ne_m, dtype=float)
-    times = STEP_S * np.arange(1, steps + 1)
     if motion.max_lateral_accel_mps2 is not None and motion.nose_rad is not None \
             and motion.max_jerk_mps3 is not None:
         steps += extra_brake_steps(motion.max_accel_mps2, motion.max_jerk_mps3, STEP_S)
-        times = STEP_S * np.arange(1, steps + 1)
+        times = step_times(steps)
         if j == 1:
             positions, speeds = fly_copter_shaped_one(start, motion, float(headings[0]),
                                                       float(commanded[0]), steps, cruise_steps,
@@ -116,6 +139,7 @@ def fly_out(start_ne_m: np.ndarray, motion: Motion, headings_rad: np.ndarray,
             positions, speeds = fly_copter_shaped(start, motion, headings, commanded, steps,
                                                   cruise_steps, fov_rad, STEP_S)
         return Rollout(times, positions, speeds)
+    times = step_times(steps)
     if motion.max_lateral_accel_mps2 is not None and motion.nose_rad is not None:
         positions, speeds = _fly_copter(start, motion, headings, commanded, steps, cruise_steps,
                                         fov_rad)
@@ -273,7 +297,12 @@ def _fly_one(start: np.ndarray, motion: Motion, heading: float, commanded: float
              cruise_steps: int, fov_rad: float) -> tuple[np.ndarray, np.ndarray]:
     """fly_out's loop for one command in Python floats (J = 1 is most calls: the goal heading's
     path; numpy's per-call cost was nearly all of it). The same operations in the same order;
-    positions (1, N, 2), speeds (1, N)."""
+    positions (1, N, 2), speeds (1, N).
+
+    Two shortcuts, both exact: a step's cos and sin are those of the last step when its mid
+    course is the same nonzero float (a straight leg: nearly nine steps in ten on dense worlds);
+    and once a cruise step leaves course and speed as they were (the same nonzero floats, so the
+    same bits), every cruise step after it repeats it, and only the position moves."""
     # Each clip is written as min(max(x, lo), hi) evaluates (max keeps x unless lo > x, min
     # keeps it unless hi < it), without the two builtin calls, and the path is one flat list:
     # the same values, less time.
@@ -282,16 +311,18 @@ def _fly_one(start: np.ndarray, motion: Motion, heading: float, commanded: float
     half_fov = 0.5 * fov_rad
     rate = motion.max_turn_rate_rad_s
     lateral = motion.max_lateral_accel_mps2
-    fixed_limit = rate * STEP_S
     pi, cos, sin = math.pi, math.cos, math.sin
     course, speed = float(motion.course_rad), float(motion.speed_mps)
     north, east = float(start[0]), float(start[1])
     path: list[float] = []
     speeds: list[float] = []
-    limit = fixed_limit
-    for k in range(steps):
+    limit = rate * STEP_S
+    last_mid = cos_mid = sin_mid = 0.0          # 0.0: never reused (see below)
+    k = 0
+    while k < steps:
         error = (heading - course + pi) % TWO_PI - pi
-        if k < cruise_steps:
+        cruising = k < cruise_steps
+        if cruising:
             target = 0.0 if abs(error) > half_fov else commanded * cos(error)
         else:
             if speed == 0.0:
@@ -311,15 +342,38 @@ def _fly_one(start: np.ndarray, motion: Motion, heading: float, commanded: float
         turn = neg_limit if neg_limit > error else error
         turn = limit if limit < turn else turn
         mid = course + 0.5 * turn
+        if mid != last_mid or mid == 0.0:        # equal nonzero floats: the same bits
+            last_mid, cos_mid, sin_mid = mid, cos(mid), sin(mid)
         step_m = mean_speed * STEP_S
-        north = north + step_m * cos(mid)
-        east = east + step_m * sin(mid)
-        course = course + turn
+        north = north + step_m * cos_mid
+        east = east + step_m * sin_mid
+        new_course = course + turn
+        steady = new_course == course and new_speed == speed and course != 0.0 and speed != 0.0
+        course = new_course
         speed = new_speed
         path.append(north)
         path.append(east)
         speeds.append(speed)
+        k += 1
+        if cruising and steady and k < cruise_steps:
+            north, east = _cruise_straight(path, north, east, step_m * cos_mid,
+                                           step_m * sin_mid, cruise_steps - k)
+            speeds += [speed] * (cruise_steps - k)
+            k = cruise_steps
     return np.array(path).reshape(1, steps, 2), np.array(speeds).reshape(1, steps)
+
+
+def _cruise_straight(path: list[float], north: float, east: float, step_north_m: float,
+                     step_east_m: float, count: int) -> tuple[float, float]:
+    """_fly_one's steady cruise: ``count`` more steps of the same length along the same course,
+    appended to the flat ``path``; returns the last north, east."""
+    append = path.append
+    for _ in range(count):
+        north = north + step_north_m
+        east = east + step_east_m
+        append(north)
+        append(east)
+    return north, east
 
 
 def clearance(rollout: Rollout, obstacles: np.ndarray, radii: np.ndarray,
@@ -337,11 +391,7 @@ def clearance(rollout: Rollout, obstacles: np.ndarray, radii: np.ndarray,
     j = rollout.positions.shape[0]
     if len(obstacles) == 0:
         return np.full(j, np.inf)
-    t = rollout.times_s
-    centres = obstacles[None, :, :] + (np.zeros((1, 1, 2)) if velocities is None
-                                       else t[:, None, None] * velocities[None, :, :])  # (N, n, 2)
-    grown = radii[None, :] + (0.0 if growth_mps is None
-                              else np.minimum(t[:, None] * growth_mps[None, :], MAX_GROWTH_M))
+    centres, grown = _obstacles_at(rollout.times_s, obstacles, radii, velocities, growth_mps)
     # north and east apart: no (J, N, n, 2) array of gaps
     north = rollout.positions[:, :, 0][:, :, None] - centres[None, :, :, 0]            # (J,N,n)
     east = rollout.positions[:, :, 1][:, :, None] - centres[None, :, :, 1]
@@ -353,16 +403,27 @@ def clearance(rollout: Rollout, obstacles: np.ndarray, radii: np.ndarray,
     return margin.min(axis=1)
 
 
+def _obstacles_at(times_s: np.ndarray, obstacles: np.ndarray, radii: np.ndarray,
+                  velocities: np.ndarray | None, growth_mps: np.ndarray | None
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """The obstacles' centres (N, n, 2) and safety radii (N, n) at the roll-out's times (N,); a
+    length 1 where they do not change: static centres and ungrown radii as they are. (Adding
+    zeros to them, as this once did, can change only a zero's sign: hypot ignores signs, and a
+    distance less +0.0 or -0.0 is the same float; the same margins, fewer arrays.)"""
+    centres = obstacles[None, :, :] if velocities is None \
+        else obstacles[None, :, :] + times_s[:, None, None] * velocities[None, :, :]
+    grown = radii[None, :] if growth_mps is None \
+        else radii[None, :] + np.minimum(times_s[:, None] * growth_mps[None, :], MAX_GROWTH_M)
+    return centres, grown
+
+
 def margins_by_obstacle(rollout: Rollout, obstacles: np.ndarray, radii: np.ndarray,
                         velocities: np.ndarray | None = None,
                         growth_mps: np.ndarray | None = None
                         ) -> tuple[np.ndarray, np.ndarray]:
     """For one rolled-out path (J = 1): each obstacle's smallest margin (n,) and its time (n,)."""
     t = rollout.times_s
-    centres = obstacles[None, :, :] + (np.zeros((1, 1, 2)) if velocities is None
-                                       else t[:, None, None] * velocities[None, :, :])
-    grown = radii[None, :] + (0.0 if growth_mps is None
-                              else np.minimum(t[:, None] * growth_mps[None, :], MAX_GROWTH_M))
+    centres, grown = _obstacles_at(t, obstacles, radii, velocities, growth_mps)
     gaps = rollout.positions[0][:, None, :] - centres
     margin = np.hypot(gaps[..., 0], gaps[..., 1]) - grown                            # (N, n)
     worst = margin.argmin(axis=0)

@@ -18,6 +18,8 @@ import math
 import numpy as np
 from scipy.ndimage import distance_transform_edt
 
+from companion.core.geometry import wrap_angle
+
 CELL_M = 2.0
 GROW_CELLS = 64                  # the grid grows by at least this many cells when it must
 
@@ -49,6 +51,7 @@ class SeenSpace:
         ox, oy = float(self._origin[0]), float(self._origin[1])
         lo_i, lo_j = math.floor((x - r - ox) / cell), math.floor((y - r - oy) / cell)
         hi_i, hi_j = math.ceil((x + r - ox) / cell), math.ceil((y + r - oy) / cell)
+        lo_i, hi_i, lo_j, hi_j = self._view_box(x, y, yaw, (lo_i, hi_i, lo_j, hi_j))
         dx = (ox + (np.arange(lo_i, hi_i) + 0.5) * cell - x)[:, None]
         dy = (oy + (np.arange(lo_j, hi_j) + 0.5) * cell - y)[None, :]
         dist = np.hypot(dx, dy)
@@ -59,6 +62,24 @@ class SeenSpace:
         self._field = None
         if self.keep_m is not None:
             self._forget_far(np.array([x, y]))
+
+    def _view_box(self, x: float, y: float, yaw: float,
+                  box: tuple[int, int, int, int]) -> tuple[int, int, int, int]:
+        """The part of ``box`` (cell indices lo_i, hi_i, lo_j, hi_j: the square of the camera's
+        range) where a cell can be in view from (x, y, yaw): the bounding box of the view's
+        sector, the camera included, widened by a cell each way (the cells that hold the camera;
+        rounding is many orders smaller). Every cell left out would be marked False, so the same
+        cells are marked; at 90 degrees the arrays mark computes are under half the size."""
+        half = 0.5 * self.fov_rad
+        if half >= math.pi:
+            return box
+        low_n, high_n, low_e, high_e = _sector_extent(yaw, half)
+        r, cell = self.range_m, self.cell_m
+        ox, oy = float(self._origin[0]), float(self._origin[1])
+        return (max(box[0], math.floor((x + r * low_n - cell - ox) / cell)),
+                min(box[1], math.ceil((x + r * high_n + cell - ox) / cell)),
+                max(box[2], math.floor((y + r * low_e - cell - oy) / cell)),
+                min(box[3], math.ceil((y + r * high_e + cell - oy) / cell)))
 
     def _forget_far(self, position: np.ndarray) -> None:
         """Crop the grid to the cells within keep_m of ``position`` once it spans more than
@@ -106,3 +127,15 @@ class SeenSpace:
         clipped = np.clip(index, 0, np.array(self._seen.shape) - 1)
         values = self._field[clipped[..., 0], clipped[..., 1]]
         return np.where(inside, np.maximum(values, 0.0), 0.0)
+
+
+def _sector_extent(yaw_rad: float, half_rad: float) -> tuple[float, float, float, float]:
+    """The bounding box of a unit-radius sector (its apex at the origin, its arc yaw +- half)
+    as (low north, high north, low east, high east): the apex, the arc's ends, and the axis
+    directions within the arc, where north or east peaks."""
+    angles = [yaw_rad - half_rad, yaw_rad + half_rad]
+    angles += [axis for axis in (0.0, 0.5 * math.pi, math.pi, -0.5 * math.pi)
+               if abs(wrap_angle(axis - yaw_rad)) <= half_rad]
+    norths = [0.0] + [math.cos(a) for a in angles]
+    easts = [0.0] + [math.sin(a) for a in angles]
+    return min(norths), max(norths), min(easts), max(easts)

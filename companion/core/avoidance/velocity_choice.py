@@ -81,13 +81,17 @@ def guide_flyable(inputs: GuidanceInputs, params: GuidanceParams,
     reference = pose[2] if previous_heading_rad is None else previous_heading_rad
     radii = safety_radii(inputs, params)
     gaps = np.hypot(*(obstacles - pose[:2]).T) - radii if len(obstacles) else np.empty(0)
-    speeds = np.zeros(len(obstacles)) if velocities is None else np.hypot(*velocities.T)
     # what the roll-out can reach: the look-ahead at the faster of now and cruise, then a stop
     top = max(cruise, motion.speed_mps)
     reach = top * union.lookahead_s + top * top / (2.0 * motion.max_accel_mps2)
-    grow = np.zeros(len(obstacles)) if growth_mps is None else growth_mps
-    horizon = union.lookahead_s + top / motion.max_accel_mps2
-    near = np.flatnonzero(gaps < reach + speeds * horizon + np.minimum(grow * horizon, MAX_GROWTH_M))
+    if velocities is None and growth_mps is None:
+        near = (gaps < reach).nonzero()[0]      # what the sum below adds here: zeros
+    else:
+        speeds = np.zeros(len(obstacles)) if velocities is None else np.hypot(*velocities.T)
+        grow = np.zeros(len(obstacles)) if growth_mps is None else growth_mps
+        horizon = union.lookahead_s + top / motion.max_accel_mps2
+        near = (gaps < reach + speeds * horizon
+                + np.minimum(grow * horizon, MAX_GROWTH_M)).nonzero()[0]
     if near.size == 0:
         heading = goal_heading
         in_view = abs(wrap_angle(goal_heading - pose[2])) <= 0.5 * union.fov_rad
@@ -241,13 +245,13 @@ def choose_velocity(pose: np.ndarray, goal_heading: float, goal_distance: float,
                            min(max(speed, motion.speed_mps) * union.lookahead_s, goal_distance),
                            speed, velocities, union.lookahead_s, geometry).any(axis=1)
         # a gate's heading passes between cones by construction: its flown path alone decides
-        free = np.flatnonzero(~blocked | through_gate)
+        free = (~blocked | through_gate).nonzero()[0]
         if free.size == 0:
             continue
         committed = free[~far_blocked[free] | through_gate[free]]
         if committed.size:
             free = committed
-        free = free[np.argsort(cost[free], kind="stable")]
+        free = free[cost[free].argsort(kind="stable")]
         skip = 0
         if free[0] == 0:
             if reachable(free[:1], speed)[0] >= 0.0:
@@ -277,7 +281,7 @@ def choose_velocity(pose: np.ndarray, goal_heading: float, goal_distance: float,
         # its nose held comes first, if one keeps every margin (evade.py)
         moving = evasion_now()[0]
         return evade_command(*moving[:2]) if moving is not None else chosen
-    everything = np.argsort(cost, kind="stable")
+    everything = cost.argsort(kind="stable")
     for speed in (0.25 * cruise, 0.0):
         first, _ = _first_passing(everything, 0, lambda k: flyable(k, speed), offset, False)
         if first is not None:
@@ -421,7 +425,7 @@ def _most_urgent(position: np.ndarray, motion: Motion, goal_heading: float, crui
         rolled = fly_out(position, motion, np.array([goal_heading]), np.array([cruise]),
                          union.lookahead_s, union.fov_rad)
     margin, when = margins_by_obstacle(rolled, obstacles, radii, velocities, growth_mps)
-    violated = np.flatnonzero(margin < 0.0)
+    violated = (margin < 0.0).nonzero()[0]
     if violated.size == 0:
         return None, None
     first = int(violated[np.argmin(when[violated])])

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from companion.core.geometry import wrap_angle
+from companion.core.geometry import wrap_angles
 
 TENTATIVE = "tentative"
 CONFIRMED = "confirmed"
@@ -88,17 +88,20 @@ def expected_visible(pose: np.ndarray, points: np.ndarray, params: LifecyclePara
         return np.zeros(n, dtype=bool)
     d = points - pose[:2]
     range_m = np.hypot(d[:, 0], d[:, 1])
-    bearing = np.array([wrap_angle(a) for a in np.arctan2(d[:, 1], d[:, 0]) - pose[2]])
+    bearing = wrap_angles(np.arctan2(d[:, 1], d[:, 0]) - pose[2])
     inside = ((range_m >= params.min_range_m)
               & (range_m <= params.max_range_m - params.range_margin_m)
               & (np.abs(bearing) <= 0.5 * params.fov_rad - params.edge_margin_rad))
     # the half angle each landmark hides behind it (all of the view when the vehicle is at it)
     half = np.arcsin(np.minimum(1.0, params.occluder_radius_m / np.maximum(range_m, 1e-9)))
-    for i in np.flatnonzero(inside):
-        gap = np.abs(np.angle(np.exp(1j * (bearing[i] - bearing))))
-        hidden = (range_m < range_m[i]) & (gap <= half)
-        hidden[i] = False
-        inside[i] = not hidden.any()
+    rows = inside.nonzero()[0]
+    if rows.size:
+        # every landmark in view against every other at once, (m, n): a row per landmark in
+        # view, the same operations on the same numbers as one at a time
+        gap = np.abs(np.angle(np.exp(1j * (bearing[rows][:, None] - bearing[None, :]))))
+        hidden = (range_m[None, :] < range_m[rows][:, None]) & (gap <= half[None, :])
+        hidden[np.arange(rows.size), rows] = False
+        inside[rows] = ~hidden.any(axis=1)
     return inside
 
 
