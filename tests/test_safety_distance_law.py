@@ -6,6 +6,7 @@ import subprocess
 import sys
 
 import pytest
+import yaml
 
 from companion.config.scenario import load_scenario
 from companion.config.sections import AvoidanceConfig
@@ -21,7 +22,7 @@ def law(**keys) -> AvoidanceConfig:
 
 
 def test_d_is_linear_in_the_cruise_speed_up_to_the_full_speed_then_flat():
-    avoidance = law(safety_distance_rest_m=0.75, safety_full_speed_mps=5.0)
+    avoidance = law(safety_distance_rest_m=0.75, safety_full_speed_mps=5.0)   # 0.15 s a m/s
     assert avoidance.safety_distance_at(0.0) == pytest.approx(0.75)
     assert avoidance.safety_distance_at(3.0) == pytest.approx(1.2)
     assert avoidance.safety_distance_at(4.0) == pytest.approx(1.35)
@@ -36,11 +37,11 @@ def test_without_the_law_d_is_the_same_at_every_speed():
 
 def test_the_scenario_flies_and_scores_the_d_of_its_cruise_speed():
     base = load_scenario(FOREST)
-    for speed, d in ((3.0, 1.2), (5.0, 1.5), (10.0, 1.5)):
+    for speed, d in ((3.0, 1.2), (5.0, 1.5), (7.0, 1.8), (10.0, 1.8)):
         scenario = with_speed(base, speed)
         assert scenario.safety_distance_m == pytest.approx(d)
         assert scenario.guidance_params().safety_distance_m == pytest.approx(d)
-        assert scenario.avoidance.safety_distance_m == 1.5      # the file's key is untouched
+        assert scenario.avoidance.safety_distance_m == 1.8      # the file's key is untouched
 
 
 def test_a_flight_between_0_95_d_of_its_speed_and_of_the_fastest_counts_only_at_the_slow_speed():
@@ -56,19 +57,17 @@ def test_a_flight_between_0_95_d_of_its_speed_and_of_the_fastest_counts_only_at_
     ({"safety_distance_rest_m": 1.0}, "safety_distance_rest_m", "safety_full_speed_mps"),
     ({"safety_full_speed_mps": 5.0}, "safety_full_speed_mps", "safety_distance_rest_m"),
     ({"safety_distance_rest_m": 2.0, "safety_full_speed_mps": 5.0}, "safety_distance_rest_m",
-     "(0, safety_distance_m = 1.5]"),
+     "(0, safety_distance_m = 1.8]"),
     ({"safety_distance_rest_m": 1.0, "safety_full_speed_mps": 0.0}, "safety_full_speed_mps",
      "a value > 0"),
 ])
 def test_a_malformed_law_names_the_file_the_key_and_the_problem(tmp_path, keys, key, problem):
-    text = open(FOREST).read()
-    text = text.replace("  safety_distance_rest_m: 0.75", "  safety_distance_rest_m: null") \
-        .replace("  safety_full_speed_mps: 5.0", "  safety_full_speed_mps: null")
-    lines = "".join(f"  {k}: {v}\n" for k, v in keys.items())
-    text = text.replace("avoidance:\n", "avoidance:\n" + lines, 1) \
-        .replace("  safety_distance_rest_m: null", "").replace("  safety_full_speed_mps: null", "")
+    data = yaml.safe_load(open(FOREST))
+    for name in ("safety_distance_rest_m", "safety_full_speed_mps"):
+        data["avoidance"].pop(name)
+    data["avoidance"].update(keys)
     path = tmp_path / "law.yaml"
-    path.write_text(text)
+    path.write_text(yaml.safe_dump(data))
     with pytest.raises(ConfigError) as err:
         load_scenario(path)
     assert str(err.value).startswith(f"{path}: avoidance.{key}: ")
