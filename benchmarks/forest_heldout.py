@@ -67,14 +67,14 @@ def main() -> None:
     parser.add_argument("--rows", nargs="+", default=["grid400@5", "grid400@10", "grid800@3"])
     args = parser.parse_args()
     base = load_scenario("config/scenarios/forest.yaml")
-    d = base.safety_distance_m
-    print("| worlds | speed | seeds | success | collisions | centre clearance p5 (min) | "
-          "surface min | median path | timed out | wall s |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
+    print("| worlds | speed | d | seeds | success | collisions | centre clearance p5 (min) | "
+          "surface min | median path | timed out | wall s | failed seeds (closest centre) |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for row in args.rows:
         kind, speed = row.split("@")
         density = float(kind.removeprefix("grid"))
         scenario = with_speed(base, float(speed))
+        d = scenario.safety_distance_m                 # d grows with the cruise speed
         start = time.perf_counter()
         rows = []
         for seed in range(args.seed, args.seed + args.runs):
@@ -83,11 +83,13 @@ def main() -> None:
                          s["min_clearance_m"], s["min_surface_clearance_m"], s["path_length_m"],
                          not s["arrived"]))
         ok, hit, clear, surface, path, late = map(np.array, zip(*rows))
-        print(f"| jittered grid {density:g}/ha | {float(speed):g} m/s | {args.seed}-"
+        failed = ", ".join(f"{args.seed + i} ({clear[i]:.2f} m{', late' if late[i] else ''})"
+                           for i in np.flatnonzero(~ok))
+        print(f"| jittered grid {density:g}/ha | {float(speed):g} m/s | {d:.2f} m | {args.seed}-"
               f"{args.seed + args.runs - 1} | {ok.mean():.2f} | {hit.mean():.2f} | "
               f"{np.percentile(clear, 5):.2f} m ({clear.min():.2f} m) | {surface.min():.2f} m | "
-              f"{np.median(path):.0f} m | {late.sum()} | {time.perf_counter() - start:.0f} |",
-              flush=True)
+              f"{np.median(path):.0f} m | {late.sum()} | {time.perf_counter() - start:.0f} | "
+              f"{failed or '-'} |", flush=True)
 
 
 if __name__ == "__main__":

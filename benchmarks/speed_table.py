@@ -30,7 +30,6 @@ def main() -> None:
     parser.add_argument("--rows", nargs="+", default=list(ROWS))
     args = parser.parse_args()
     base = load_scenario("config/scenarios/paper.yaml")
-    d = base.safety_distance_m
     print("| worlds | speed | success | collisions | closest approach p5 (min) | median detour | wall s |")
     print("|---|---|---|---|---|---|---|")
     for row in args.rows:
@@ -41,6 +40,7 @@ def main() -> None:
         if gaps:
             scenario = dataclasses.replace(scenario, avoidance=dataclasses.replace(
                 scenario.avoidance, gap_margin_m=1.0))
+        d = scenario.safety_distance_m              # the d of this row's speed
         start = time.perf_counter()
         rows = []
         for seed in range(args.runs):

@@ -35,3 +35,13 @@ def test_a_non_finite_covariance_is_refused_as_filterpys_was():
         filterpy_pose_nees(np.zeros(3), np.ones(3), cov)
     with pytest.raises(ValueError):
         pose_nees(np.zeros(3), np.ones(3), cov)
+
+
+@pytest.mark.parametrize("runs", [1, 2, 3, 7, 10, 30, 99, 100, 1000])
+@pytest.mark.parametrize("dim", [2, 3])
+def test_the_nees_band_is_scipy_stats_chi2_bit_for_bit(runs, dim):
+    from scipy.stats import chi2
+    from companion.sim.aggregate import nees_band
+    tail = (1.0 - 0.95) / 2.0                      # as nees_band's 95% (0.025 + 2e-17)
+    lo, hi = chi2.ppf([tail, 1.0 - tail], runs * dim)
+    assert nees_band(runs, dim) == (float(lo / runs), float(hi / runs))

@@ -15,8 +15,12 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-from filterpy.kalman import KalmanFilter
+
+if TYPE_CHECKING:
+    from filterpy.kalman import KalmanFilter
 
 from companion.core.geometry import place, place_jacobians
 
@@ -110,6 +114,10 @@ class MoverTracker:
         error (m/s), else at rest with initial_speed_sigma_mps; ``cross_cov`` (2,2): the
         covariance of the point's error with that estimate's (a fit through the point, as
         ``start_evidence`` gives), else none."""
+        # Imported at the first track, not with the module: filterpy's package imports
+        # scipy.stats (0.5-0.7 s of every start-up, serial before simulate's workers fork),
+        # and most flights convict no mover.
+        from filterpy.kalman import KalmanFilter
         kf = KalmanFilter(dim_x=4, dim_z=2)
         vel, vel_sigma = (np.zeros(2), self.params.initial_speed_sigma_mps) if velocity is None \
             else (np.asarray(velocity[0], dtype=float), float(velocity[1]))
