@@ -14,15 +14,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-if TYPE_CHECKING:
-    from filterpy.kalman import KalmanFilter
-
 from companion.core.geometry import place, place_jacobians
+
+if TYPE_CHECKING:                 # imported at the first track (MoverTracker.create says why)
+    from filterpy.kalman import KalmanFilter
 
 
 @dataclass(frozen=True)
