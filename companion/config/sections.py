@@ -180,6 +180,10 @@ class EstimatorConfig:
     # The filter's range model: sigma_r = range_sigma_m + range_sigma_k_per_m * r^2 (the floor and
     # the stereo k, core/estimation/range_noise.py), apart from the truth's sensor keys. 0: constant.
     range_sigma_k_per_m: float = 0.0
+    # Where an update evaluates that model: 'measured' (the sighting's own range, as the gates do)
+    # or 'predicted' (the landmark's predicted range: R at the measured range weights short
+    # sightings more and maps trunks short, range_noise.py). Only with range_sigma_k_per_m > 0.
+    range_sigma_at: Literal["measured", "predicted"] = "measured"
     speed_sigma_mps: float = 0.3
     heading_change_sigma_deg: float = 0.02
     reference_dt_s: float = 0.1
@@ -349,6 +353,7 @@ class EstimatorConfig:
             degraded_reaction=self.degraded_reaction, lost_reaction=self.lost_reaction,
             slow_factor=self.slow_factor, lifecycle=self.lifecycle_params(),
             range_sigma_k_per_m=self.range_sigma_k_per_m,
+            range_sigma_at_predicted=self.range_sigma_at == "predicted",
             yaw_bias_sigma_rad=math.radians(self.yaw_bias_sigma_deg),
             yaw_bias_tau_s=self.yaw_bias_tau_s,
             velocity_in_yaw_frame=self.velocity_frame == "yaw",

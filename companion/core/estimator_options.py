@@ -49,6 +49,8 @@ class EstimatorOptions:
     slow_factor: float = 0.5
     lifecycle: LifecycleParams = LifecycleParams()
     range_sigma_k_per_m: float = 0.0
+    range_sigma_at_predicted: bool = False  # updates evaluate that sigma at the landmark's
+                                          # predicted range, not the measured one (range_noise.py)
     yaw_bias_sigma_rad: float = 0.0
     yaw_bias_tau_s: float = 600.0
     velocity_in_yaw_frame: bool = False     # velocity_ned: see EkfSlam.predict_velocity

@@ -71,6 +71,13 @@ class EkfSlam(EkfMotion, EkfCorrections, EkfNis, EkfBatch, EkfMapEdits):
         self._id_to_index: dict[int, int] = {}
         self._index_to_id: list[int | None] = []
         self._scratch: tuple = (None,)          # see _make_scratch
+        self._range_model: tuple[float, float] | None = None   # see set_range_model
+
+    def set_range_model(self, floor_m: float, k_per_m: float) -> None:
+        """Updates evaluate a range-modelled observation's range sigma (Observation.range_modelled)
+        again at the landmark's predicted range r: floor + k r^2 (core/estimation/range_noise.py:
+        R at the measured range biases the map short); its bearing variance is kept."""
+        self._range_model = (float(floor_m), float(k_per_m))
 
     # ----------------------------------------------------------------- views
     @property
@@ -172,16 +179,19 @@ class EkfSlam(EkfMotion, EkfCorrections, EkfNis, EkfBatch, EkfMapEdits):
         best = int(np.argmin(nis_all))
         best_nis = float(nis_all[best])
         if best_nis <= self.gates.accept_nis:
-            return self._correct(self._innovation(z, best, r), best, None, landmark_only)
+            return self._correct(self._innovation(z, best, r, obs.range_modelled), best, None,
+                                 landmark_only)
         if best_nis > self.gates.new_landmark_nis:
             return self._add(np.array(z), None, r)
         return UpdateReport("ambiguous", best, None, best_nis, None)
 
     def update_landmark(self, z: np.ndarray, index: int, landmark_only: bool = False,
-                        meas_cov: np.ndarray | None = None) -> UpdateReport:
-        """Update with measurement z (2,) of a landmark the caller has already associated."""
-        return self._correct(self._innovation(z, index, meas_cov), index, self._index_to_id[index],
-                             landmark_only)
+                        meas_cov: np.ndarray | None = None,
+                        range_modelled: bool = False) -> UpdateReport:
+        """Update with measurement z (2,) of a landmark the caller has already associated
+        (``range_modelled``: ``meas_cov`` is the range model's, Observation.range_modelled)."""
+        return self._correct(self._innovation(z, index, meas_cov, range_modelled), index,
+                             self._index_to_id[index], landmark_only)
 
     def copy(self) -> "EkfSlam":
         """An independent copy (for the navigator's rollback when a young landmark moves)."""

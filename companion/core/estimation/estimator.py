@@ -37,6 +37,8 @@ class Estimator:
     def __init__(self, start_pose: np.ndarray, start_pose_cov: np.ndarray, noise: SlamNoise,
                  gates: AssociationGates, options: EstimatorOptions) -> None:
         self.slam = EkfSlam(start_pose, start_pose_cov, noise, gates)
+        if options.range_sigma_at_predicted and options.range_sigma_k_per_m > 0.0:
+            self.slam.set_range_model(noise.range_sigma_m, options.range_sigma_k_per_m)
         self.options = options
         self.monitor = ConsistencyMonitor(options.monitor)
         self.health: Consistency | None = None

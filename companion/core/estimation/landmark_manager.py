@@ -266,7 +266,8 @@ class LandmarkManager:
         est = self.estimator
         young = self._schmidt(key)
         report = est.slam.update_landmark(z, index, landmark_only=young,
-                                          meas_cov=obs.meas_cov_array())
+                                          meas_cov=obs.meas_cov_array(),
+                                          range_modelled=obs.range_modelled)
         if not young:
             est.monitor.add(est.clock_s, report.nis, 2)
         self._note(key, obs, report.action)

@@ -80,6 +80,9 @@ class Observation:
 
     ``meas_cov``: this observation's own R, ((var_r, cov), (cov, var_b)) in m^2, m rad, rad^2
     (a landmark made from a depth camera's sectors knows its spread); None: the filter's R.
+    ``range_modelled``: ``meas_cov`` is not the observation's own but the filter's stereo model
+    evaluated at the measured range (core/estimation/range_noise.py), which an update may
+    evaluate again at the landmark's predicted range (EkfSlam.set_range_model).
     ``top_down_m`` / ``bottom_down_m``: the highest and lowest of its points, as depths below the
     camera (FRD z, down positive; core/perception/vertical_extent.py); None: a 2D observation. The EKF
     itself never reads them.
@@ -90,6 +93,7 @@ class Observation:
     meas_cov: tuple | None = None
     top_down_m: float | None = None
     bottom_down_m: float | None = None
+    range_modelled: bool = False
 
     def meas_cov_array(self) -> np.ndarray | None:
         return None if self.meas_cov is None else np.asarray(self.meas_cov, dtype=float)

@@ -70,8 +70,11 @@ class EkfCorrections:
         self._joseph_pass(hp, _joseph_coef2(s00, s01, s11, i00, i01, i11, v0, v1).dot(hp), 2)
         return UpdateReport("position", None, (v0, v1), nis, None)
 
-    def _innovation(self, z, index: int, meas_cov=None) -> "_Innovation":
+    def _innovation(self, z, index: int, meas_cov=None,
+                    range_modelled: bool = False) -> "_Innovation":
         """Innovation, S, its inverse and H P of one range-bearing observation z of a landmark.
+        ``range_modelled`` with a range model set (EkfSlam.set_range_model): R's range variance
+        is the model's at the predicted range.
 
         H touches five states only (the pose and the landmark): with a = dn/r, b = de/r,
         c = de/r^2, e = dn/r^2 its rows are [-a, -b, 0, a, b] and [c, -e, -1, -c, e] on the
@@ -99,6 +102,9 @@ class EkfCorrections:
             (r00, r01), (_, r11) = self._meas_cov_rows
         else:
             (r00, r01), (_, r11) = meas_cov
+        if range_modelled and self._range_model is not None:
+            sigma = self._range_model[0] + self._range_model[1] * range_sq
+            r00 = sigma * sigma
         s00 = a * u0 + b * v0 + r00
         s01 = 0.5 * ((-c * u0 + e * v0 - h02) + (a * u1 + b * v1)) + r01
         s11 = -c * u1 + e * v1 - h12 + r11
@@ -143,6 +149,9 @@ class EkfCorrections:
             (r00, r01), (_, r11) = self._meas_cov_rows
         else:
             (r00, r01), (_, r11) = meas_cov
+        if obs.range_modelled and self._range_model is not None:     # as in _innovation
+            sigma = self._range_model[0] + self._range_model[1] * range_sq
+            r00 = sigma * sigma
         s00 = a * u0 + b * w0 + r00
         s01 = 0.5 * ((-c * u0 + e * w0 - h02) + (a * u1 + b * w1)) + r01
         s11 = -c * u1 + e * w1 - h12 + r11
