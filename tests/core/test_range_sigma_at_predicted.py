@@ -135,3 +135,18 @@ def test_the_pose_stays_consistent_in_the_dense_forest():
     outcomes = [run_once(random_world(base, "forest-dense", seed), seed) for seed in range(4)]
     nees = aggregate(outcomes, base.safety_distance_m)["nees"]
     assert nees["mean"] < 3.6 and nees["in_band_fraction"] >= 0.7, nees
+
+
+@pytest.mark.parametrize("at_predicted, k_per_m, expected", [
+    (True, K_PER_M, (FLOOR_M, K_PER_M)),
+    (True, 0.0, None),                 # a constant R: nothing to evaluate again
+    (False, K_PER_M, None),
+])
+def test_the_estimator_sets_the_model_only_when_asked_and_the_range_model_is_on(
+        at_predicted, k_per_m, expected):
+    from companion.core.estimation.estimator import Estimator
+    from companion.core.estimator_options import EstimatorOptions
+
+    options = EstimatorOptions(range_sigma_k_per_m=k_per_m, range_sigma_at_predicted=at_predicted)
+    estimator = Estimator(np.zeros(3), np.eye(3) * 1e-4, NOISE, AssociationGates(), options)
+    assert estimator.slam._range_model == expected
