@@ -79,6 +79,13 @@ class EkfSlam(EkfMotion, EkfCorrections, EkfNis, EkfBatch, EkfMapEdits):
         R at the measured range biases the map short); its bearing variance is kept."""
         self._range_model = (float(floor_m), float(k_per_m))
 
+    def _modelled_range_var(self, range_sq: float) -> float:
+        """The range model's variance (floor + k r^2)^2 at the predicted range r, given r^2
+        (both update paths have it; only called with a model set)."""
+        floor_m, k_per_m = self._range_model
+        sigma = floor_m + k_per_m * range_sq
+        return sigma * sigma
+
     # ----------------------------------------------------------------- views
     @property
     def gates(self) -> AssociationGates:

@@ -103,8 +103,7 @@ class EkfCorrections:
         else:
             (r00, r01), (_, r11) = meas_cov
         if range_modelled and self._range_model is not None:
-            sigma = self._range_model[0] + self._range_model[1] * range_sq
-            r00 = sigma * sigma
+            r00 = self._modelled_range_var(range_sq)
         s00 = a * u0 + b * v0 + r00
         s01 = 0.5 * ((-c * u0 + e * v0 - h02) + (a * u1 + b * v1)) + r01
         s11 = -c * u1 + e * v1 - h12 + r11
@@ -150,8 +149,7 @@ class EkfCorrections:
         else:
             (r00, r01), (_, r11) = meas_cov
         if obs.range_modelled and self._range_model is not None:     # as in _innovation
-            sigma = self._range_model[0] + self._range_model[1] * range_sq
-            r00 = sigma * sigma
+            r00 = self._modelled_range_var(range_sq)
         s00 = a * u0 + b * w0 + r00
         s01 = 0.5 * ((-c * u0 + e * w0 - h02) + (a * u1 + b * w1)) + r01
         s11 = -c * u1 + e * w1 - h12 + r11
