@@ -1,4 +1,4 @@
-"""The parameter protocol's messages <-> companion/onboard/parameters.py's requests and values.
+"""The parameter protocol's messages <-> the parameter server's requests and values (mavlink/param_messages.py).
 
 PARAM_REQUEST_LIST, PARAM_REQUEST_READ and PARAM_SET come in as :class:`ParamRequest`; a
 :class:`ParamValue` goes out as PARAM_VALUE. Values travel as float32 with integers cast to float
@@ -9,7 +9,7 @@ that are not ASCII are kept as replacement characters (and match no parameter).
 from __future__ import annotations
 
 from companion.mavlink.dialect import mavlink
-from companion.onboard.parameters import ParamRequest, ParamValue
+from companion.mavlink.param_messages import ParamRequest, ParamValue
 
 
 def _name(param_id) -> str:

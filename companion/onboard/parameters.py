@@ -24,11 +24,13 @@ import dataclasses
 import math
 from collections import deque
 from dataclasses import dataclass, field
-from typing import Any, Literal
+from typing import Any
 
 from companion.config.service import CompanionConfig, config_to_dict
 from companion.config.loader import FieldError, build
 from companion.errors import ConfigError
+# the protocol's messages as the wire decodes and sends them (mavlink/param_messages.py)
+from companion.mavlink.param_messages import ParamRequest, ParamValue
 
 MAV_PARAM_TYPE_INT32 = 6
 MAV_PARAM_TYPE_REAL32 = 9
@@ -161,31 +163,6 @@ def with_value(config: CompanionConfig, key: str, value: Any, source: str) -> Co
     except FieldError as exc:
         where = exc.key if "." in exc.key else f"{section}.{exc.key}"
         raise ConfigError(f"{source}: {where}: {exc.problem}") from None
-
-
-@dataclass(frozen=True)
-class ParamRequest:
-    """A decoded PARAM_REQUEST_LIST / PARAM_REQUEST_READ / PARAM_SET (mavlink/param_codec.py)."""
-    kind: Literal["list", "read", "set"]
-    system_id: int
-    component_id: int
-    target_system: int
-    target_component: int
-    name: str = ""
-    index: int = -1
-    value: float = math.nan
-    param_type: int = 0
-    signed: bool = False
-
-
-@dataclass(frozen=True)
-class ParamValue:
-    """One PARAM_VALUE to send."""
-    name: str
-    value: float
-    param_type: int
-    count: int
-    index: int
 
 
 @dataclass(frozen=True)

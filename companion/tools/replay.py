@@ -15,105 +15,15 @@ from __future__ import annotations
 
 import csv
 import math
-import time
-from collections import Counter
-from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 
 from companion.mavlink import codec
-from companion.mavlink.tlog import TlogReader, TlogStats
-from companion.config.service import CompanionConfig, config_to_dict
-from companion.onboard.pipeline import Pipeline, snapshot
-
-
-@dataclass
-class ReplayResult:
-    path: Path
-    stats: TlogStats
-    pipeline: Pipeline
-    config: CompanionConfig
-    messages: int = 0
-    inbound: int = 0
-    by_type: Counter = field(default_factory=Counter)
-    first_us: int | None = None
-    last_us: int | None = None
-    wall_s: float = 0.0
-    setpoints: list = field(default_factory=list)          # replayed VelocitySetpoint
-    replayed_keys: list = field(default_factory=list)      # their wire values
-    recorded_keys: list = field(default_factory=list)      # what the companion sent
-    replayed_poses: dict = field(default_factory=dict)     # time_usec -> float32 (north, east)
-    recorded_poses: list = field(default_factory=list)     # (time_usec, north, east)
-    notes: list = field(default_factory=list)
-
-
-def replay_tlog(path: str | Path, config: CompanionConfig,
-                progress: Callable[[int], None] | None = None,
-                on_inbound: Callable[[int, Pipeline], None] | None = None) -> ReplayResult:
-    """Replay one tlog; never raises on a damaged file (see ``stats`` and ``notes``).
-    ``on_inbound(t_us, pipeline)`` after each inbound message (the live view's replay)."""
-    reader = TlogReader(path, progress)
-    pipeline = Pipeline(config, config.goal, record_track=True)
-    result = ReplayResult(Path(path), reader.stats, pipeline, config)
-    ours = config.link.component_id
-    started = time.perf_counter()
-    for record in reader:
-        msg = record.msg
-        kind = codec.message_type(msg)
-        result.messages += 1
-        result.by_type[kind] += 1
-        result.first_us = record.t_us if result.first_us is None else result.first_us
-        result.last_us = record.t_us
-        if codec.is_from_us(msg, ours):
-            if kind == "SET_POSITION_TARGET_LOCAL_NED":
-                result.recorded_keys.append(codec.setpoint_key(msg))
-            elif kind == "ODOMETRY":
-                result.recorded_poses.append(codec.odometry_key(msg))
-            continue
-        result.inbound += 1
-        for output in pipeline.handle(record.t_us / 1e6, codec.decode(msg)):
-            if isinstance(output, codec.VelocitySetpoint):
-                result.setpoints.append(output)
-                result.replayed_keys.append(codec.setpoint_key_of(output))
-            elif isinstance(output, codec.PoseEstimate):
-                result.replayed_poses[int(round(output.t_s * 1e6))] = (
-                    codec.float32(output.north_m), codec.float32(output.east_m))
-        if on_inbound is not None:
-            on_inbound(record.t_us, pipeline)
-    if len(result.recorded_keys) == len(result.replayed_keys) + 1 and result.last_us is not None:
-        # the daemon's shutdown: SIGINT/SIGTERM while commanding sent one stop setpoint
-        for output in pipeline.stop_setpoint(result.last_us / 1e6):
-            result.setpoints.append(output)
-            result.replayed_keys.append(codec.setpoint_key_of(output))
-    result.wall_s = time.perf_counter() - started
-    _add_notes(result)
-    return result
-
-
-def _add_notes(result: ReplayResult) -> None:
-    notes, p = result.notes, result.pipeline
-    notes.extend(result.stats.notes)
-    if result.stats.bytes_skipped:
-        notes.append(f"{result.stats.bytes_skipped} corrupt bytes skipped in "
-                     f"{result.stats.skipped_regions} place(s)")
-    if result.stats.bad_packets:
-        notes.append(f"{result.stats.bad_packets} packets unreadable (bad CRC or unknown id)")
-    if result.messages and p.vehicle is None:
-        notes.append("no autopilot heartbeat found (or not from the --sysid given): nothing replayed")
-    if p.other_vehicles:
-        notes.append(f"several vehicles: replayed system {p.vehicle[0] if p.vehicle else '?'}, "
-                     f"ignored {sorted(p.other_vehicles)} (choose with --sysid)")
-    if p.vehicle is not None and not (result.by_type["OBSTACLE_DISTANCE_3D"]
-                                      + result.by_type["OBSTACLE_DISTANCE"]):
-        notes.append("no obstacle messages: a pose-only track (odometry dead reckoning)")
-    if p.vehicle is not None and p.navigator is None:
-        notes.append("no LOCAL_POSITION_NED with ATTITUDE from the vehicle: no track")
-    if result.config.goal is None:
-        notes.append("no goal configured: estimates only, no guidance or setpoints")
-    if not result.recorded_keys and not result.recorded_poses:
-        notes.append("the tlog holds nothing a companion sent: no comparison")
+from companion.config.service import config_to_dict
+from companion.onboard.pipeline import snapshot
+# the replay itself is the daemon's wiring fed from a file; this module compares and reports it
+from companion.daemon.replay import ReplayResult, replay_tlog  # noqa: F401  (re-exported)
 
 
 def comparison(result: ReplayResult) -> dict:

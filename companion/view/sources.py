@@ -92,7 +92,7 @@ class ReplayFeed:
             self._stop.set()
 
     def _replay(self, loop: asyncio.AbstractEventLoop) -> None:
-        from companion.tools.replay import replay_tlog
+        from companion.daemon.replay import replay_tlog
         cursor = feed.PathCursor()
         started = time.monotonic()
         marks = {"first_us": None, "next_s": 0.0, "seq": 0, "pipeline": None}
