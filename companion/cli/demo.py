@@ -10,7 +10,7 @@ from pathlib import Path
 from companion.cli.autopilot_demo import add_autopilot_arguments, run_autopilot
 from companion.cli.run import run_task_tree
 from companion.config.scenario import load_scenario
-from companion.config.service import load_config
+from companion.config.service import load_user_config
 from companion.errors import CompanionError
 from companion.config.paths import resolve_config
 from companion.tools.report import print_summary, write_json
@@ -72,7 +72,7 @@ def run(args: argparse.Namespace) -> int:
     scenario_path = resolve_config(args.scenario)
     scenario = load_scenario(scenario_path)
     base_config = resolve_config(args.config)
-    load_config(base_config)                  # a bad base names its file and key, before a child
+    load_user_config(base_config)             # a bad base names its file and key, before a child
     if args.view_feed:
         from companion.view.feed import parse_address
         parse_address(args.view_feed, "--view-feed")

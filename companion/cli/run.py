@@ -7,12 +7,12 @@ import dataclasses
 import math
 import sys
 
-from companion.config.service import CompanionConfig, GoalConfig, load_config
+from companion.config.service import SHIPPED_CONFIG, CompanionConfig, GoalConfig, load_user_config
 from companion.config.loader import MAX_MAGNITUDE, FieldError
 from companion.errors import CompanionError, ConfigError
 from companion.config.paths import resolve_config
 
-DEFAULT_CONFIG = "config/companion.yaml"
+DEFAULT_CONFIG = SHIPPED_CONFIG
 
 
 def add_parser(sub) -> None:
@@ -25,7 +25,9 @@ def add_parser(sub) -> None:
     p.add_argument("--connect", required=True, metavar="URL",
                    help="udpin:HOST:PORT, udpout:HOST:PORT, tcp:HOST:PORT, tcpin:HOST:PORT or "
                         "/dev/ttyX:BAUD")
-    p.add_argument("--config", default=DEFAULT_CONFIG, help=f"YAML settings (default {DEFAULT_CONFIG})")
+    p.add_argument("--config", default=DEFAULT_CONFIG,
+                   help=f"YAML settings: only the keys that differ from the shipped "
+                   f"{DEFAULT_CONFIG}, which holds every other (default: that file itself)")
     p.add_argument("--goal", metavar="NORTH,EAST[,RADIUS] | geo:LAT,LON[,RADIUS]",
                    help="goal in LOCAL_NED metres from the EKF origin, or as latitude,longitude in "
                         "degrees after 'geo:' (converted with the vehicle's EKF origin), or 'mission' "
@@ -91,8 +93,8 @@ def parse_goal(text: str) -> GoalConfig:
 
 
 def effective_config(args: argparse.Namespace) -> CompanionConfig:
-    """The config file with the command line's overrides applied."""
-    config = load_config(resolve_config(args.config))
+    """The config file, layered over the shipped one, with the command line's overrides applied."""
+    config = load_user_config(args.config)
     if args.goal:
         goal = parse_goal(args.goal)
         if goal.mission and config.goal is not None and config.goal.mission:

@@ -14,6 +14,7 @@ from typing import Literal
 from companion.config.checks import (PLAUSIBLE_ACCEL_MPS2, PLAUSIBLE_DELAY_S, PLAUSIBLE_JERK_MPS3,
                                      PLAUSIBLE_SPEED_MPS, require_positive)
 from companion.config.loader import FieldError, build, read_yaml, require
+from companion.config.paths import resolve_config
 from companion.config.sections import AvoidanceConfig, EstimatorConfig
 from companion.config.scenario import PerceptionConfig
 from companion.core.avoidance.arc import VehicleLimits
@@ -362,17 +363,44 @@ class CompanionConfig:
                             2.0 * self.safety_distance_m)
 
 
-def load_config(path: str | Path) -> CompanionConfig:
+def load_config(path: str | Path, over: str | Path | None = None) -> CompanionConfig:
     """Read and validate a companion config; a mistake raises ConfigError naming file and key.
 
-    A relative ``link.signing_key_file`` is taken from the config file's folder.
+    With ``over`` (the shipped config/companion.yaml, say), ``path`` is a layer: it holds only the
+    keys that differ, and every other key is ``over``'s (:func:`layered`). Errors then name
+    ``path``, the user's file, where a key of it is unknown or its value is refused.
+    A relative ``link.signing_key_file`` is taken from ``path``'s folder.
     """
-    config = build(CompanionConfig, read_yaml(path), path)
+    data = read_yaml(path)
+    if over is not None and Path(over).resolve() != Path(path).resolve():
+        data = layered(read_yaml(over), data)
+    config = build(CompanionConfig, data, path)
     key_file = config.link.signing_key_file
     if key_file is not None and not Path(key_file).is_absolute():
         config = replace(config, link=replace(
             config.link, signing_key_file=str(Path(path).resolve().parent / key_file)))
     return config
+
+
+SHIPPED_CONFIG = "config/companion.yaml"
+
+
+def load_user_config(path: str | Path) -> CompanionConfig:
+    """A user's ``--config``: layered over the shipped config/companion.yaml (found as
+    resolve_config finds it), so it need hold only the keys that differ."""
+    return load_config(resolve_config(path), over=resolve_config(SHIPPED_CONFIG))
+
+
+def layered(base: dict, layer: dict) -> dict:
+    """``layer`` over ``base``: mappings merge key by key, anything else in ``layer`` (a number,
+    a list, null) replaces ``base``'s value whole. Neither argument is changed."""
+    merged = dict(base)
+    for key, value in layer.items():
+        if isinstance(value, dict) and isinstance(base.get(key), dict):
+            merged[key] = layered(base[key], value)
+        else:
+            merged[key] = value
+    return merged
 
 
 def config_to_dict(config) -> dict:

@@ -29,9 +29,8 @@ from companion.mavlink.link import open_link
 from companion.tools.child_lifetime import die_with_parent_hook
 from companion.config.scenario import Scenario
 from companion.config.secrets import read_signing_key
-from companion.config.service import CompanionConfig, config_to_dict, GoalConfig, load_config
+from companion.config.service import CompanionConfig, config_to_dict, GoalConfig, load_user_config
 from companion.errors import CompanionError
-from companion.config.paths import resolve_config
 from companion.daemon.streams import STREAMS
 from companion.sim.simulation import perception_delay_s
 from companion.tools.demo_scoring import read_report, read_truth
@@ -82,7 +81,7 @@ def demo_config(scenario: Scenario, base_path: str | Path = "config/companion.ya
     signed traffic with the key in ``signing_key_file`` (an absolute path) if given.
     ``keep_shaping``: the base's commanding.max_jerk_mps3 and yaw_lead_s stay (beside a real
     autopilot); else both are off, as the stub's truth needs."""
-    base = load_config(resolve_config(base_path))
+    base = load_user_config(base_path)
     if signing_key_file is not None:
         base = dataclasses.replace(base, link=dataclasses.replace(
             base.link, signing_key_file=str(signing_key_file)))

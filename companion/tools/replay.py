@@ -1,10 +1,5 @@
-"""``companion replay``: a recorded tlog through the same Pipeline as the live daemon.
-
-Inbound records (everything not sent by a companion component) go through codec.decode and
-Pipeline.handle in file order, stamped with their own tlog time, exactly as the daemon fed them
-live; so a tlog the daemon recorded replays to the same estimates and the same setpoints. What
-the recorded companion sent (its SET_POSITION_TARGET_LOCAL_NED and ODOMETRY) is kept aside and
-compared with what the replay would send.
+"""``companion replay``'s comparison and report: what a tlog replayed through the daemon's
+Pipeline (companion/daemon/replay.py) sends, against what the recorded companion sent.
 
 Comparisons are made on the wire values: MAVLink carries float32, so the replayed setpoint is
 packed and parsed back, and the replayed pose rounded to float32, before comparing. A
@@ -19,7 +14,6 @@ from pathlib import Path
 
 import numpy as np
 
-from companion.mavlink import codec
 from companion.config.service import config_to_dict
 from companion.onboard.pipeline import snapshot
 # the replay itself is the daemon's wiring fed from a file; this module compares and reports it
