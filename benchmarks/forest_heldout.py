@@ -13,17 +13,22 @@ at the row's speed; row ``gridDENSITY@V``. Columns as benchmarks/forest_table.py
 """
 from __future__ import annotations
 
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))   # run as a script: the repo root
+
 import argparse
 import dataclasses
 import math
-import time
 
 import numpy as np
 
 from companion.config.scenario import Scenario, load_scenario
 from companion.config.world import Goal, Obstacle, StartPose, World
 from companion.sim.forest_worlds import FOREST_SPECS, start_clearing_m
-from companion.sim.simulation import run_once, with_speed
+from companion.sim.simulation import with_speed
+from benchmarks.table_rows import fly_row, parse_row  # noqa: E402
 
 JITTER = 0.25            # of the pitch, either way along each axis
 
@@ -71,26 +76,17 @@ def main() -> None:
           "surface min | median path | timed out | wall s | failed seeds (closest centre) |")
     print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for row in args.rows:
-        kind, speed = row.split("@")
+        kind, speed, _ = parse_row(row)
         density = float(kind.removeprefix("grid"))
-        scenario = with_speed(base, float(speed))
+        scenario = with_speed(base, speed)
         d = scenario.safety_distance_m                 # d grows with the cruise speed
-        start = time.perf_counter()
-        rows = []
-        for seed in range(args.seed, args.seed + args.runs):
-            s = run_once(jittered_grid_world(scenario, seed, density), seed).summary
-            rows.append((s["reached_goal"] and s["min_clearance_m"] >= 0.95 * d, s["collided"],
-                         s["min_clearance_m"], s["min_surface_clearance_m"], s["path_length_m"],
-                         not s["arrived"]))
-        ok, hit, clear, surface, path, late = map(np.array, zip(*rows))
-        failed = ", ".join(f"{args.seed + i} ({clear[i]:.2f} m{', late' if late[i] else ''})"
-                           for i in np.flatnonzero(~ok))
-        print(f"| jittered grid {density:g}/ha | {float(speed):g} m/s | {d:.2f} m | {args.seed}-"
-              f"{args.seed + args.runs - 1} | {ok.mean():.2f} | {hit.mean():.2f} | "
-              f"{np.percentile(clear, 5):.2f} m ({clear.min():.2f} m) | {surface.min():.2f} m | "
-              f"{np.median(path):.0f} m | {late.sum()} | {time.perf_counter() - start:.0f} | "
-              f"{failed or '-'} |", flush=True)
-
+        f = fly_row(lambda seed: jittered_grid_world(scenario, seed, density),
+                    range(args.seed, args.seed + args.runs), d)
+        print(f"| jittered grid {density:g}/ha | {speed:g} m/s | {d:.2f} m | {args.seed}-"
+              f"{args.seed + args.runs - 1} | {f.ok.mean():.2f} | {f.hit.mean():.2f} | "
+              f"{np.percentile(f.clear_m, 5):.2f} m ({f.clear_m.min():.2f} m) | {f.surface_m.min():.2f} m | "
+              f"{np.median(f.path_m):.0f} m | {f.late.sum()} | {f.wall_s:.0f} | "
+              f"{f.failed() or '-'} |", flush=True)
 
 if __name__ == "__main__":
     main()

@@ -10,14 +10,19 @@ after another; on a shared machine start a process per row.
 """
 from __future__ import annotations
 
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))   # run as a script: the repo root
+
 import argparse
-import time
 
 import numpy as np
 
 from companion.config.scenario import load_scenario
-from companion.sim.simulation import run_once, with_speed
+from companion.sim.simulation import with_speed
 from companion.sim.worlds import random_world
+from benchmarks.table_rows import fly_row, parse_row  # noqa: E402
 
 ROWS = tuple(f"{kind}@{v}" for kind in ("forest", "forest-dense") for v in (3, 5, 7, 10))
 
@@ -32,22 +37,13 @@ def main() -> None:
           "surface min | median path | timed out | wall s |")
     print("|---|---|---|---|---|---|---|---|---|---|---|")
     for row in args.rows:
-        kind, speed = row.split("@")
-        scenario = with_speed(base, float(speed))
+        kind, speed, _ = parse_row(row)
+        scenario = with_speed(base, speed)
         d = scenario.safety_distance_m                 # d grows with the cruise speed
-        start = time.perf_counter()
-        rows = []
-        for seed in range(args.runs):
-            s = run_once(random_world(scenario, kind, seed), seed).summary
-            rows.append((s["reached_goal"] and s["min_clearance_m"] >= 0.95 * d, s["collided"],
-                         s["min_clearance_m"], s["min_surface_clearance_m"], s["path_length_m"],
-                         not s["arrived"]))
-        ok, hit, clear, surface, path, late = map(np.array, zip(*rows))
-        print(f"| {kind} | {float(speed):g} m/s | {d:.2f} m | {args.runs} | {ok.mean():.2f} | {hit.mean():.2f} | "
-              f"{np.percentile(clear, 5):.2f} m ({clear.min():.2f} m) | {surface.min():.2f} m | "
-              f"{np.median(path):.0f} m | {late.sum()} | {time.perf_counter() - start:.0f} |",
-              flush=True)
-
+        f = fly_row(lambda seed: random_world(scenario, kind, seed), range(args.runs), d)
+        print(f"| {kind} | {speed:g} m/s | {d:.2f} m | {args.runs} | {f.ok.mean():.2f} | {f.hit.mean():.2f} | "
+              f"{np.percentile(f.clear_m, 5):.2f} m ({f.clear_m.min():.2f} m) | {f.surface_m.min():.2f} m | "
+              f"{np.median(f.path_m):.0f} m | {f.late.sum()} | {f.wall_s:.0f} |", flush=True)
 
 if __name__ == "__main__":
     main()

@@ -10,15 +10,20 @@ another; on a shared machine start two or three processes with their own --rows.
 """
 from __future__ import annotations
 
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))   # run as a script: the repo root
+
 import argparse
 import dataclasses
-import time
 
 import numpy as np
 
 from companion.config.scenario import load_scenario
-from companion.sim.simulation import run_once, with_speed
+from companion.sim.simulation import with_speed
 from companion.sim.worlds import random_world
+from benchmarks.table_rows import fly_row, parse_row  # noqa: E402
 
 ROWS = ("sparse@5", "dense@5", "dense@10", "dense@15", "moving@5", "head-on@5", "crossing@5",
         "overtaking@5", "traffic@5", "gate@5", "gate@5+gaps", "trap@5", "dense@5+gaps")
@@ -33,29 +38,17 @@ def main() -> None:
     print("| worlds | speed | success | collisions | closest approach p5 (min) | median detour | wall s |")
     print("|---|---|---|---|---|---|---|")
     for row in args.rows:
-        kind, speed = row.split("@")
-        gaps = speed.endswith("+gaps")            # avoidance.gap_margin_m = 1 m
-        speed = speed.removesuffix("+gaps")
-        scenario = with_speed(base, float(speed))
+        kind, speed, suffix = parse_row(row)
+        gaps = suffix == "gaps"                   # avoidance.gap_margin_m = 1 m
+        scenario = with_speed(base, speed)
         if gaps:
             scenario = dataclasses.replace(scenario, avoidance=dataclasses.replace(
                 scenario.avoidance, gap_margin_m=1.0))
         d = scenario.safety_distance_m              # the d of this row's speed
-        start = time.perf_counter()
-        rows = []
-        for seed in range(args.runs):
-            world = random_world(scenario, kind, seed)
-            s = run_once(world, seed).summary
-            straight = np.hypot(world.world.goal.north_m - world.world.start.north_m,
-                                world.world.goal.east_m - world.world.start.east_m
-                                ) - world.world.goal.radius_m
-            rows.append((s["reached_goal"] and s["min_clearance_m"] >= 0.95 * d, s["collided"],
-                         s["min_clearance_m"], s["path_length_m"] - straight))
-        ok, hit, clear, detour = map(np.array, zip(*rows))
-        print(f"| {kind} | {float(speed):g} m/s{', gaps 1 m' if gaps else ''} | {ok.mean():.2f} | {hit.mean():.2f} | "
-              f"{np.percentile(clear, 5):.1f} m ({clear.min():.1f} m) | {np.median(detour):.1f} m | "
-              f"{time.perf_counter() - start:.0f} |", flush=True)
-
+        f = fly_row(lambda seed: random_world(scenario, kind, seed), range(args.runs), d)
+        print(f"| {kind} | {speed:g} m/s{', gaps 1 m' if gaps else ''} | {f.ok.mean():.2f} | {f.hit.mean():.2f} | "
+              f"{np.percentile(f.clear_m, 5):.1f} m ({f.clear_m.min():.1f} m) | {np.median(f.detour_m):.1f} m | "
+              f"{f.wall_s:.0f} |", flush=True)
 
 if __name__ == "__main__":
     main()

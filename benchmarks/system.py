@@ -338,8 +338,11 @@ def measure_replay(tlog: Path, reps: int) -> dict:
         conn.close()
         parse_s.append(time.perf_counter() - start)
         start = time.perf_counter()
-        messages = replay_tlog(tlog, config).messages
+        result = replay_tlog(tlog, config)
         replay_s.append(time.perf_counter() - start)
+        messages = result.messages
+    boot_s, _, _ = link_clock(tlog)          # the vehicle's clock (a tlog stamps wall time)
+    flight_s = float(boot_s[-1] - boot_s[0]) if len(boot_s) > 1 else None
     # One more replay with Navigator.decide timed: how much of replay is guidance.
     decide = navigator.Navigator.decide
     spent = [0.0, 0]
@@ -360,7 +363,8 @@ def measure_replay(tlog: Path, reps: int) -> dict:
         navigator.Navigator.decide = decide
     return {"msgs_per_s": messages / float(np.median(replay_s)),
             "parse_only_msgs_per_s": parsed / float(np.median(parse_s)),
-            "messages": messages, "parsed": parsed, "reps": reps,
+            "messages": messages, "parsed": parsed, "reps": reps, "flight_s": flight_s,
+            "real_time_factor": flight_s / float(np.median(replay_s)) if flight_s else None,
             "replay_s": float(np.median(replay_s)), "parse_only_s": float(np.median(parse_s)),
             "decisions": spent[1], "decide_us": spent[0] / max(spent[1], 1) * 1e6,
             "decide_share": spent[0] / instrumented_s}
@@ -432,6 +436,9 @@ def print_system(system: dict) -> None:
               f"{rep['msgs_per_s'] / rep['parse_only_msgs_per_s']:.2f} ({rep['messages']} messages, "
               f"median of {rep['reps']}); Navigator.decide {rep['decide_us']:.0f} us x "
               f"{rep['decisions']} = {100 * rep['decide_share']:.0f}% of replay time")
+        if rep.get("real_time_factor"):
+            print(f"replay against the flight: {rep['flight_s']:.0f} s of tlog replayed in "
+                  f"{rep['replay_s']:.2f} s, {rep['real_time_factor']:.0f}x real time")
     print(f"{'flight':>10} {'speedup':>7} {'passed':>6} {'sim s':>6} {'wall s':>7} {'x real':>7} "
           f"{'clear m':>7} {'demo s':>6} {'lat p50':>7} {'lat p99':>7} {'n':>4} {'RSS MB':>6} "
           f"{'stall s':>7}")
