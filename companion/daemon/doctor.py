@@ -31,7 +31,8 @@ from companion.onboard.safety.timesync import TimeSync
 log = logging.getLogger(__name__)
 
 ASK_PERIOD_S = 0.5             # AUTOPILOT_VERSION, the origin, parameters, TIMESYNC: this often
-MAX_ASKS = 6                   # each one-off question at most this many times
+MAX_ASKS = 6                   # AUTOPILOT_VERSION, the parameters: at most this many times
+ORIGIN_EVERY = 2               # the EKF origin: every this many rounds, until it comes
 PLACEHOLDER_SYSTEM_ID = 1
 
 
@@ -94,20 +95,22 @@ class Doctor:
             await asyncio.sleep(1.0 / self.config.link.heartbeat_rate_hz)
 
     async def ask(self) -> None:
-        """The one-off questions, asked again until answered (at most MAX_ASKS times each), and
-        a TIMESYNC request every ASK_PERIOD_S."""
-        asked = {"version": 0, "origin": 0, "params": 0}
+        """The one-off questions, asked again until answered (at most MAX_ASKS times; the EKF
+        origin for as long as it takes), and a TIMESYNC request every ASK_PERIOD_S."""
+        asked = {"version": 0, "params": 0}
         obs = self.observer
+        rounds = 0
         while True:
             await asyncio.sleep(ASK_PERIOD_S)
             if self.found.vehicle is None:
                 continue
+            rounds += 1
             sysid, compid = self.found.vehicle
             if obs.firmware is None and asked["version"] < MAX_ASKS:
                 asked["version"] += 1
                 self.out.send(dc.request_autopilot_version(sysid, compid))
-            if obs.origin is None and asked["origin"] < MAX_ASKS:
-                asked["origin"] += 1
+            if obs.origin is None and rounds % ORIGIN_EVERY == 1:
+                # until it comes: ArduCopter sets it 30-40 s after boot (as the service asks)
                 self.out.send(codec.request_message(sysid, compid,
                                                     dialect.MSG_ID_GPS_GLOBAL_ORIGIN))
             profile = profile_for(obs.vehicle.autopilot if obs.vehicle else None)
