@@ -98,7 +98,6 @@ class Observer:
         self.signed = self.unsigned = 0
         self.params: dict[str, float] = {}
         self.params_asked: tuple[str, ...] = ()
-        self.last_s = start_s
 
     # ------------------------------------------------------------ what we did
     def streams_asked_at(self, t_s: float) -> None:
@@ -120,7 +119,6 @@ class Observer:
                 event, fact) -> None:
         """One received message: its id, sender, whether it was signed, the service's event
         and the doctor's record of it (either may be None)."""
-        self.last_s = max(self.last_s, t_s)
         if isinstance(fact, dc.HeartbeatInfo):
             self._on_heartbeat(fact)
         if self.vehicle is None or source[0] != self.vehicle.system_id:
