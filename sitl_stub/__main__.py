@@ -2,7 +2,8 @@
 
     sitl-stub --scenario PATH [--tcp HOST:PORT|none] [--udp HOST:PORT] [--speedup N] [--seed S]
               [--truth-log PATH] [--drop-rate P] [--sysid N] [--signing-key FILE] [--streams-off]
-              [--lockstep] [--lockstep-timeout-s S] [--route]
+              [--lockstep] [--lockstep-timeout-s S] [--route] [--message-rate MSG_ID:HZ]
+              [--fixed-rate MSG_ID:HZ] [--no-camera]
     sitl-stub --camera-only --connect URL --scenario PATH [--seed S] [--sysid N]
               [--ekf-origin N,E] [--sectors]     # the camera alone, beside any autopilot
 
@@ -65,6 +66,8 @@ class Options:
     lockstep: LockstepOptions | None = None
     route: bool = False
     boot_intervals: tuple[tuple[int, float], ...] = ()     # (message id, Hz) every link starts with
+    fixed_rates: tuple[tuple[int, float], ...] = ()        # (message id, Hz) whatever is asked
+    no_camera: bool = False                                # the camera sends nothing
 
 
 def _extent_record(world, obstacle_id: int) -> dict:
@@ -140,6 +143,13 @@ def build_parser() -> argparse.ArgumentParser:
                         "SRn_ parameters of a companion's port on a real vehicle; applied at "
                         "t=0 after the boot burst, as a SET_MESSAGE_INTERVAL then would be "
                         "(a link's own requests change only its own rates)")
+    p.add_argument("--fixed-rate", action="append", default=[], metavar="MSG_ID:HZ",
+                   help="a message at this rate on every link whatever is asked (repeatable): "
+                        "SET_MESSAGE_INTERVAL and REQUEST_DATA_STREAM are accepted and change "
+                        "nothing for it, as behind a router or ground station that holds the "
+                        "rates, or a link too slow for more")
+    p.add_argument("--no-camera", action="store_true",
+                   help="the camera (component 100) sends nothing: no heartbeat, no obstacles")
     p.add_argument("--lockstep", action="store_true",
                    help="step only when the companion's ODOMETRY says it has caught up "
                         "(docs/sitl_stub.md); --speedup paces the free-run fallback")
@@ -189,17 +199,20 @@ def parse_options(argv: list[str] | None) -> Options:
                    seed=args.seed, truth_log=Path(args.truth_log) if args.truth_log else None,
                    drop_rate=args.drop_rate, sysid=sysid, signing_key=key,
                    streams_off=args.streams_off, lockstep=lockstep, route=args.route,
-                   boot_intervals=tuple(_message_rate(text) for text in args.message_rate))
+                   boot_intervals=tuple(_message_rate(text) for text in args.message_rate),
+                   fixed_rates=tuple(_message_rate(text, "--fixed-rate")
+                                     for text in args.fixed_rate),
+                   no_camera=args.no_camera)
 
 
-def _message_rate(text: str) -> tuple[int, float]:
+def _message_rate(text: str, option: str = "--message-rate") -> tuple[int, float]:
     msg_id, _, rate = text.partition(":")
     try:
         result = int(msg_id), float(rate)
     except ValueError:
-        raise ValueError(f"--message-rate: expected MSG_ID:HZ, got {text!r}") from None
+        raise ValueError(f"{option}: expected MSG_ID:HZ, got {text!r}") from None
     if result[0] not in STREAMABLE or not (0.0 < result[1] <= 1000.0):
-        raise ValueError(f"--message-rate: {text!r}: a streamable message id "
+        raise ValueError(f"{option}: {text!r}: a streamable message id "
                          f"({', '.join(map(str, STREAMABLE))}) and 0 < HZ <= 1000")
     return result
 
@@ -261,7 +274,7 @@ async def simulate(opts: Options, sim: Simulation, ap: Autopilot, cam: CameraCom
         """The step's messages. A link with its own stream rates (it asked: SET_MESSAGE_INTERVAL
         or REQUEST_DATA_STREAM) gets its own streams; the others share one set."""
         shared = ap.stream_items(ap.streams.shared, t_s)
-        tail = ap.mission_ticks(t_s) + cam.periodic(t_s)
+        tail = ap.mission_ticks(t_s) + ([] if opts.no_camera else cam.periodic(t_s))
         own = ap.link_streams(t_s)
         if not own:
             emit(head + shared + tail)
@@ -277,6 +290,8 @@ async def simulate(opts: Options, sim: Simulation, ap: Autopilot, cam: CameraCom
     emit_step(sim.t_s, [])
     for msg_id, rate_hz in opts.boot_intervals:
         ap.streams.shared.set_message_interval(msg_id, 1e6 / rate_hz)
+    for msg_id, rate_hz in opts.fixed_rates:
+        ap.streams.shared.fixed_s[msg_id] = 1.0 / rate_hz
     if truth_log is not None:
         truth_log.write(sim.t_s, sim, ap)
     while True:

@@ -51,6 +51,12 @@ class ParamTable:
             ("LAND_SPEED_HIGH", 0.0, MAV_PARAM_TYPE_INT16),   # cm/s above it; 0: WPNAV_SPEED_DN
             ("LAND_ALT_LOW", 1000.0, MAV_PARAM_TYPE_INT16),   # cm
             ("DISARM_DELAY", 10.0, MAV_PARAM_TYPE_INT8),      # s landed with idle motors; 0: never
+            # listed only (the stub has no proximity sensor or avoidance): ArduCopter 4.6 defaults,
+            # what `companion doctor` reads
+            ("PRX1_TYPE", 0.0, MAV_PARAM_TYPE_INT8),          # no proximity sensor
+            ("AVOID_ENABLE", 3.0, MAV_PARAM_TYPE_INT8),       # fence + proximity
+            ("AVOID_MARGIN", 2.0, MAV_PARAM_TYPE_REAL32),     # m
+            ("OA_TYPE", 0.0, MAV_PARAM_TYPE_INT8),            # no path planner
         ]
         for port in STREAM_PORTS:
             for suffix in STREAM_SUFFIXES:

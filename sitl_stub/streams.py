@@ -67,11 +67,14 @@ class StreamScheduler:
         self._override_s: dict[int, float] = {}   # msg id -> interval s, or _DISABLED
         self._next_due_s: dict[int, float] = {}
         self._own_rates_hz: dict[str, float] | None = None   # a link's own SRn_ (None: params)
+        # --fixed-rate: messages sent at this interval whatever anyone asks (shared by every link)
+        self.fixed_s: dict[int, float] = {}
 
     def clone_for_link(self) -> "StreamScheduler":
         """A link's own scheduler, as the shared one stands now (same intervals, same due
         times: the link's messages carry on without a gap or a burst)."""
         other = StreamScheduler(self._params)
+        other.fixed_s = self.fixed_s
         other._override_s = dict(self._override_s)
         other._next_due_s = dict(self._next_due_s)
         other._own_rates_hz = dict(self._own_rates_hz) if self._own_rates_hz is not None \
@@ -86,6 +89,8 @@ class StreamScheduler:
 
     def interval_s(self, msg_id: int) -> float | None:
         """Current interval of a message in seconds, or None if it is not being sent."""
+        if msg_id in self.fixed_s:
+            return self.fixed_s[msg_id]
         if msg_id in self._override_s:
             value = self._override_s[msg_id]
             return None if value == _DISABLED else value

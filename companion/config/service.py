@@ -48,6 +48,10 @@ class LinkConfig:
     # ground station that reads a non-autopilot's SYS_STATUS as the vehicle's (docs/messages.md,
     # "Identity and health": MAVProxy aimed at component 191 says "fence breach").
     sys_status: bool = True
+    # PARAM_VALUEs a second while a ground station's PARAM_REQUEST_LIST is answered (one list at a
+    # time: companion/onboard/param_pacing.py). 10: 370 bytes/s (37-byte MAVLink 2 PARAM_VALUE),
+    # 6% of a 57,600-baud radio's 5,760 bytes/s (8N1); ArduPilot lets its own list use 30%.
+    param_rate_hz: float = 10.0
 
     def __post_init__(self) -> None:
         for key in ("component_id", "camera_component_id"):
@@ -57,7 +61,8 @@ class LinkConfig:
             require(value is None or 1 <= value <= 255, key, value, "an id in [1, 255] or null")
         require(self.guided_custom_mode >= 0, "guided_custom_mode", self.guided_custom_mode,
                 "a custom mode number >= 0")
-        for key in ("heartbeat_rate_hz", "heartbeat_timeout_s", "reconnect_interval_s"):
+        for key in ("heartbeat_rate_hz", "heartbeat_timeout_s", "reconnect_interval_s",
+                    "param_rate_hz"):
             require_positive(key, getattr(self, key))
         require(self.inbox_size >= 10, "inbox_size", self.inbox_size, "an integer >= 10")
         require(self.camera_frame_idle_s is None or 0.0 < self.camera_frame_idle_s <= 0.5,

@@ -15,6 +15,7 @@ sending. Tasks, one job each:
              for a lat/lon goal (companion/daemon/streams.py)
   tlog       flush twice a second
   parameters write the parameter overlay after accepted PARAM_SETs (param_overlay.OverlaySaver)
+  param-list PARAM_REQUEST_LIST answered at link.param_rate_hz, one list at a time (param_list.py)
   stop       SIGINT/SIGTERM -> one stop setpoint if commanding -> ShutdownRequested
 
 With ``lockstep`` (``companion run --lockstep``, against ``sitl-stub --lockstep``) the stamps given
@@ -38,6 +39,7 @@ from companion.mavlink.link import MavlinkLink, open_link
 from companion.mavlink.tlog import TlogWriter
 from companion.config.secrets import read_signing_key
 from companion.config.service import CompanionConfig, config_to_dict
+from companion.daemon.param_list import send_param_list
 from companion.daemon.param_overlay import Overlay, OverlaySaver
 from companion.errors import ShutdownRequested
 from companion.daemon.lockstep import VehicleLinkClock, lockstep_config
@@ -97,6 +99,7 @@ class Service:
         # per second of flight must not depend on that. The lock-step clock is one already;
         # otherwise a clock of its own follows the vehicle's stamps (monotonic across reboots).
         self.notice_clock = clock if clock is not None else VehicleLinkClock(1.0)
+        self.param_list_queued = asyncio.Event()     # a PARAM_REQUEST_LIST is being answered
         self._timesyncs_sent = 0
         self._last_timesync_s: float | None = None
         if tlog is not None:
@@ -165,6 +168,8 @@ class Service:
         for output in pipeline.handle(t_us / 1e6, event):
             await self._dispatch(output)
             answered = answered or isinstance(output, codec.PoseEstimate)
+        if pipeline.param_requests.pacer.sending:
+            self.param_list_queued.set()
         return answered
 
     async def _dispatch(self, output) -> None:
@@ -374,6 +379,9 @@ async def run_service(config: CompanionConfig, url: str, tlog_path: str | Path |
                         tg.create_task(service.flush_tlog(), name="tlog")
                     if overlay is not None:
                         tg.create_task(service.saver.run(), name="parameters")
+                    tg.create_task(send_param_list(service.pipeline, service.param_list_queued,
+                                                   lambda: service._now_us() / 1e6,
+                                                   service._dispatch), name="param-list")
                     if view_feed is not None:
                         tg.create_task(feed.publish(service.pipeline, view_feed), name="view-feed")
                     tg.create_task(service.raise_on_stop(), name="stop")

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import asyncio
 import logging
+from typing import Callable
 
 from companion.config.service import StreamsConfig
 from companion.mavlink import codec, dialect
@@ -49,6 +50,7 @@ class StreamRequests:
                                      streams.rate_check_s, streams.min_rate_fraction,
                                      streams.max_reasserts)
         self._rates_said = False
+        self.on_asked: Callable[[float], None] | None = None   # after each round of requests
 
     def want(self) -> None:
         """Ask for the streams again, and for the EKF origin at once if it is still wanted
@@ -106,6 +108,8 @@ class StreamRequests:
             for msg_id, rate_key in STREAMS:
                 await self._request_stream(msg_id, getattr(streams, rate_key))
             self.rates.restart(self.link.now_us() / 1e6)
+            if self.on_asked is not None:
+                self.on_asked(self.link.now_us() / 1e6)
             try:
                 async with asyncio.timeout(streams.rerequest_after_s):
                     await self.odometry_seen.wait()

@@ -1,8 +1,11 @@
-"""A ground station's PARAM_* requests in the pipeline: answered at once, live sets queued.
+"""A ground station's PARAM_* requests in the pipeline: reads and sets answered at once, the
+list paced, live sets queued.
 
 The server (parameters.py) answers and checks; here its replies and notices go out, refusals
 are counted and logged, and a live set's new config waits (``pending``) for the pipeline's next
-safe point: a message boundary with no camera frame in assembly, never inside a decision.
+safe point: a message boundary with no camera frame in assembly, never inside a decision. A
+PARAM_REQUEST_LIST's values go out one list at a time at ``link.param_rate_hz``
+(param_pacing.py), on the service's timer (``tick``).
 """
 from __future__ import annotations
 
@@ -10,7 +13,8 @@ import logging
 
 from companion.config.service import CompanionConfig
 from companion.mavlink import codec
-from companion.onboard.parameters import ParamRequest, ParamServer
+from companion.onboard.param_pacing import ParamListPacer
+from companion.onboard.parameters import ParamRequest, ParamServer, ParamValue
 
 log = logging.getLogger(__name__)
 
@@ -26,6 +30,11 @@ class ParamRequests:
         self._pipeline = pipeline
         self.server = ParamServer(config, require_signed=config.link.signing_key_file is not None)
         self.pending: CompanionConfig | None = None
+        self.pacer: ParamListPacer[ParamValue] = ParamListPacer(config.link.param_rate_hz)
+
+    def tick(self, t_link_s: float) -> list[ParamValue]:
+        """The list's values due at ``t_link_s`` (the same clock as the requests')."""
+        return self.pacer.due(t_link_s)
 
     def on_request(self, t_link_s: float, request: ParamRequest, out: list) -> None:
         """A ground station's PARAM_* (companion/onboard/parameters.py); a live set is queued for the
@@ -36,7 +45,12 @@ class ParamRequests:
         outcome = self.server.handle(request, our_system, p.config.link.component_id,
                                      p.clock.latest_t_s if p.clock.latest_t_s is not None
                                      else t_link_s)
-        out.extend(outcome.replies)
+        if request.kind == "list":
+            if outcome.replies and not self.pacer.request(t_link_s, outcome.replies):
+                p.count("param_list_folded")      # one is being sent: it serves this one too
+            out.extend(self.pacer.due(t_link_s))
+        else:
+            out.extend(outcome.replies)
         for notice in outcome.notices:
             warn = notice.severity == "warning"
             if warn:

@@ -23,8 +23,9 @@ Rules (docs/messages.md repeats them):
   flight phase (companion/onboard/flight_phase.py) is airborne; they hold an altitude (vz term).
 - A goal given as latitude/longitude waits for the EKF origin (or HOME) to become metres.
 - Stale camera or an unhealthy filter: the configured safe action (hold: velocity 0, current yaw).
-- PARAM_* from a ground station (companion/onboard/parameters.py): answered at once; a live set changes
-  the config at the next message boundary with no camera frame in assembly, never mid-decision.
+- PARAM_* from a ground station (companion/onboard/parameters.py): reads and sets answered at once,
+  the list one at a time at link.param_rate_hz (param_tick); a live set changes the config at
+  the next message boundary with no camera frame in assembly, never mid-decision.
 
 The pipeline is a composition of parts, one job each; this module's own: the order of the
 stream (handle), the clock's verdict on the autopilot's messages, each odometry sample into the
@@ -216,6 +217,10 @@ class Pipeline:
     def mission_tick(self, t_link_s: float) -> list[Output]:
         """Mission download timeouts and retries (the service calls this on its timer)."""
         return self.goals.mission_tick(t_link_s)
+
+    def param_tick(self, t_link_s: float) -> list[Output]:
+        """The parameter list's values due now (the service calls this on its timer)."""
+        return list(self.param_requests.tick(t_link_s))
 
     def count(self, kind: str) -> None:
         self.counters[kind] = self.counters.get(kind, 0) + 1

@@ -9,21 +9,24 @@ import pytest
 from companion.__main__ import build_parser
 from companion.cli.run import parse_goal
 
-DOC = Path(__file__).resolve().parents[2] / "docs" / "real-vehicle.md"
+DOCS = [Path(__file__).resolve().parents[2] / "docs" / page
+        for page in ("real-vehicle.md", "doctor.md")]
 
 
 def documented_commands() -> list[str]:
     """`companion ...` lines in fenced code blocks, and inline code spans with options."""
-    text = DOC.read_text()
+    text = "\n".join(doc.read_text() for doc in DOCS)
     blocks = re.findall(r"^```[a-z]*\n(.*?)^```", text, flags=re.MULTILINE | re.DOTALL)
     lines = [line.strip() for block in blocks for line in block.splitlines()
-             if line.strip().startswith("companion ")]
+             if line.strip().startswith("companion ")
+             and not line.split()[1].endswith(":")]      # a command's output ("companion doctor: ...")
     inline = [c for c in re.findall(r"`(companion [^`]+)`", text) if " --" in c]
     return sorted(set(lines + inline))
 
 
 def test_the_page_has_command_lines_to_check():
     assert any(c.startswith("companion -v run --connect") for c in documented_commands())
+    assert any(c.startswith("companion doctor --connect") for c in documented_commands())
 
 
 @pytest.mark.parametrize("line", documented_commands())
