@@ -8,7 +8,7 @@ from dataclasses import asdict
 
 from companion.cli.run import DEFAULT_CONFIG, run_task_tree
 from companion.config.paths import resolve_config
-from companion.config.service import load_config
+from companion.config.service import load_user_config
 
 MARKS = {"ok": "ok  ", "warn": "WARN", "fail": "FAIL"}
 
@@ -25,7 +25,8 @@ def add_parser(sub) -> None:
                    help="udpin:HOST:PORT, udpout:HOST:PORT, tcp:HOST:PORT, tcpin:HOST:PORT or "
                         "/dev/ttyX:BAUD (as companion run)")
     p.add_argument("--config", default=DEFAULT_CONFIG,
-                   help=f"the service's YAML settings (default {DEFAULT_CONFIG})")
+                   help=f"the service's YAML settings, as companion run takes them (layered over "
+                        f"{DEFAULT_CONFIG})")
     p.add_argument("--seconds", type=float, default=10.0,
                    help="how long to listen (default 10; rates are measured after the streams "
                         "are asked)")
@@ -40,7 +41,7 @@ def run(args: argparse.Namespace) -> int:
         print("companion: --seconds must be > 0", file=sys.stderr)
         return 2
     path = resolve_config(args.config)
-    config = load_config(path)
+    config = load_user_config(path)
     facts, checks = run_task_tree(diagnose(config, args.connect, args.seconds, str(path)))
     failed = blockers(checks)
     if args.json:

@@ -108,6 +108,18 @@ def read_yaml(path: str | Path) -> dict:
     return data
 
 
+def layered(base: dict, layer: dict) -> dict:
+    """``layer`` over ``base``: mappings merge key by key, anything else in ``layer`` (a number,
+    a list, null) replaces ``base``'s value whole. Neither argument is changed."""
+    merged = dict(base)
+    for key, value in layer.items():
+        if isinstance(value, dict) and isinstance(base.get(key), dict):
+            merged[key] = layered(base[key], value)
+        else:
+            merged[key] = value
+    return merged
+
+
 def build(cls: type, data: Any, file: str | Path, path: str = "") -> Any:
     """Build dataclass ``cls`` from ``data`` (a mapping), checking keys and types recursively."""
     where = f"{file}: {path}" if path else f"{file}"

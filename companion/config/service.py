@@ -6,14 +6,14 @@ estimator and avoidance sections are the scenario's (sections.py).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Literal
 
 
 from companion.config.checks import (PLAUSIBLE_ACCEL_MPS2, PLAUSIBLE_DELAY_S, PLAUSIBLE_JERK_MPS3,
                                      PLAUSIBLE_SPEED_MPS, require_positive)
-from companion.config.loader import FieldError, build, read_yaml, require
+from companion.config.loader import FieldError, build, layered, read_yaml, require
 from companion.config.paths import resolve_config
 from companion.config.sections import AvoidanceConfig, EstimatorConfig
 from companion.config.scenario import PerceptionConfig
@@ -370,12 +370,8 @@ class CompanionConfig:
 
 def load_config(path: str | Path, over: str | Path | None = None) -> CompanionConfig:
     """Read and validate a companion config; a mistake raises ConfigError naming file and key.
-
-    With ``over`` (the shipped config/companion.yaml, say), ``path`` is a layer: it holds only the
-    keys that differ, and every other key is ``over``'s (:func:`layered`). Errors then name
-    ``path``, the user's file, where a key of it is unknown or its value is refused.
-    A relative ``link.signing_key_file`` is taken from ``path``'s folder.
-    """
+    With ``over``, ``path`` is a layer over it (loader.layered): it holds only the keys that
+    differ, and errors name ``path``. A relative ``link.signing_key_file`` is from its folder."""
     data = read_yaml(path)
     if over is not None and Path(over).resolve() != Path(path).resolve():
         data = layered(read_yaml(over), data)
@@ -396,19 +392,6 @@ def load_user_config(path: str | Path) -> CompanionConfig:
     return load_config(resolve_config(path), over=resolve_config(SHIPPED_CONFIG))
 
 
-def layered(base: dict, layer: dict) -> dict:
-    """``layer`` over ``base``: mappings merge key by key, anything else in ``layer`` (a number,
-    a list, null) replaces ``base``'s value whole. Neither argument is changed."""
-    merged = dict(base)
-    for key, value in layer.items():
-        if isinstance(value, dict) and isinstance(base.get(key), dict):
-            merged[key] = layered(base[key], value)
-        else:
-            merged[key] = value
-    return merged
-
-
 def config_to_dict(config) -> dict:
     """A config dataclass as plain YAML-able data (the inverse of load_config)."""
-    import dataclasses
-    return dataclasses.asdict(config)
+    return asdict(config)

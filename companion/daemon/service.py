@@ -47,7 +47,7 @@ from companion.daemon.streams import WATCHDOG_INTERVAL_S, StreamRequests
 from companion.onboard import health
 from companion.onboard.parameters import ParamChange, ParamValue
 from companion.onboard.pipeline import Arrived, NavigatorStarted, Pipeline, StreamsWanted, snapshot
-from companion.json_file import write_json
+from companion.daemon.json_report import write_json
 from companion.onboard.safety.notices import NoticeLimiter
 from companion.view import feed
 

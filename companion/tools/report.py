@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from typing import TextIO
 
-from companion.json_file import write_json  # noqa: F401  (re-exported for the tools and cli)
+from companion.daemon.json_report import write_json  # noqa: F401  (re-exported for the tools and cli)
 
 
 def _fmt(value, unit: str = "") -> str:

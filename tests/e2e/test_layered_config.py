@@ -9,7 +9,8 @@ import sys
 import pytest
 import yaml
 
-from companion.config.service import config_to_dict, layered, load_config
+from companion.config.loader import layered
+from companion.config.service import config_to_dict, load_config
 from companion.errors import ConfigError
 from tests.e2e.support import (REPO, GroundStation, companion_setpoints, read_tlog,
                                start_companion, start_stub, wait_until)

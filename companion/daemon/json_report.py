@@ -1,6 +1,6 @@
 """JSON reports written atomically, inf and NaN as null: the daemon's report file and every
-offline tool's (simulate, demo, replay, campaigns) write through here. It sits at the package's
-top, below every layer, because both the daemon and the tools need it."""
+offline tool's (simulate, demo, replay, campaigns) write through here: the daemon writes its
+report with it, and the tools, a layer above, reuse it."""
 from __future__ import annotations
 
 import json
