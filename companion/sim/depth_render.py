@@ -1,0 +1,280 @@
+"""companion simulate's depth camera: vectorised ray casting of the 3D world, and a stereo
+camera's errors.
+
+``DepthRenderer.render_m`` casts one ray per pixel from the camera's true pose against vertical
+cylinders (posts, trees, movers: a centre, a radius, a base and a top), convex prisms (walls and
+buildings: a counter-clockwise footprint, a base and a top) and the ground plane (altitude 0);
+the sky gives nothing (inf). It returns the depth along the optical axis (a RealSense's Z16, not
+the range along the ray): each pixel's ray is scaled so that its optical z is 1, so the ray
+parameter at a hit is the depth itself.
+
+Each object is cast only in the image window its bounding box projects to (the full image when
+the box straddles the camera's plane), so the cost follows the pixels objects cover.
+
+``sensor_errors`` turns true depth into Z16 pixels (uint16 millimetres, 0 = no data) with
+Intel's stereo error as noise correlated over patches, the occlusion shadow left of every near
+edge (the second imager, to the right, cannot see there), holes, and the valid depth span. Every
+error is switchable; the random draws per frame are the same whichever are on, so switching one
+does not change another's.
+
+Frames: NED world (north, east, down), the camera's optical frame (x right, y down, z forward);
+``world_from_optical`` is the 3x3 rotation taking optical vectors into NED.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from companion.core.perception.depth_frame import DepthIntrinsics
+from companion.core.perception.stereo_error import stereo_sigma_z_m
+
+BEHIND_M = 1e-6      # a box corner nearer than this to the camera's plane counts as behind it
+
+
+@dataclass(frozen=True)
+class Prism:
+    """A wall or building: a convex footprint (m, 2) north/east, counter-clockwise, between the
+    altitudes base_m and top_m (inf: unbounded)."""
+    corners_ne_m: np.ndarray
+    base_m: float
+    top_m: float
+
+
+@dataclass(frozen=True)
+class DepthScene:
+    """What a depth camera can see at one instant. Posts: centres (n, 2) north/east, radii,
+    bases and tops (n,) (tops inf: unbounded). The ground is always there, at altitude 0."""
+    post_ne_m: np.ndarray
+    post_radius_m: np.ndarray
+    post_base_m: np.ndarray
+    post_top_m: np.ndarray
+    prisms: tuple[Prism, ...] = ()
+
+    @classmethod
+    def empty(cls) -> "DepthScene":
+        z = np.zeros(0)
+        return cls(np.zeros((0, 2)), z, z, z)
+
+
+@dataclass(frozen=True)
+class StereoErrors:
+    """The errors ``sensor_errors`` applies (config/depth.py's DepthConfig says each one)."""
+    baseline_m: float = 0.095
+    subpixel: float = 0.08
+    depth_noise: bool = True
+    noise_patch_px: int = 6
+    edge_shadow: bool = True
+    shadow_band_px: int | None = None
+    dropout_fraction: float = 0.0
+
+    @classmethod
+    def none(cls) -> "StereoErrors":
+        return cls(depth_noise=False, edge_shadow=False, dropout_fraction=0.0)
+
+    @classmethod
+    def of(cls, depth) -> "StereoErrors":
+        """From a DepthConfig (sensor.depth)."""
+        return cls(depth.baseline_m, depth.subpixel, depth.depth_noise, depth.noise_patch_px,
+                   depth.edge_shadow, depth.shadow_band_px, depth.dropout_fraction)
+
+
+class DepthRenderer:
+    """Ray casting for one camera's intrinsics (the pixel grid is kept between frames)."""
+
+    def __init__(self, intrinsics: DepthIntrinsics) -> None:
+        self.intrinsics = intrinsics
+        self._x = (np.arange(intrinsics.width_px) - intrinsics.cx_px) / intrinsics.fx_px  # (W,)
+        self._y = (np.arange(intrinsics.height_px) - intrinsics.cy_px) / intrinsics.fy_px  # (H,)
+        # the longest ray (optical z = 1): a point farther than max depth x this is out of reach
+        self._max_ray = math.sqrt(1.0 + max(self._x[0] ** 2, self._x[-1] ** 2)
+                                  + max(self._y[0] ** 2, self._y[-1] ** 2))
+
+    def render_m(self, world_from_optical: np.ndarray, origin_ned_m: np.ndarray,
+                 scene: DepthScene) -> np.ndarray:
+        """(H, W) depth along the optical axis, metres; inf where the ray meets nothing within
+        reach (max depth x the longest ray)."""
+        intr = self.intrinsics
+        m = np.asarray(world_from_optical, dtype=float)
+        o = np.asarray(origin_ned_m, dtype=float)
+        x, y = self._x[None, :], self._y[:, None]
+        dn = m[0, 0] * x + m[0, 1] * y + m[0, 2]                     # (H, W) ray, NED
+        de = m[1, 0] * x + m[1, 1] * y + m[1, 2]
+        du = -(m[2, 0] * x + m[2, 1] * y + m[2, 2])                  # up
+        h = -o[2]                                                    # the camera's altitude
+        reach = intr.max_depth_m * self._max_ray
+        depth = np.full((intr.height_px, intr.width_px), np.inf)
+        if h > 0.0:
+            with np.errstate(divide="ignore", invalid="ignore"):
+                ground = np.where(du < 0.0, h / -du, np.inf)
+            np.minimum(depth, ground, out=depth)
+        a = dn * dn + de * de
+        with np.errstate(divide="ignore"):
+            rays = (dn, de, du, a, -1.0 / a)
+        for i in range(len(scene.post_radius_m)):
+            c = scene.post_ne_m[i]
+            r = float(scene.post_radius_m[i])
+            base, top = float(scene.post_base_m[i]), float(scene.post_top_m[i])
+            lo, hi = max(base, h - reach), min(top, h + reach)
+            if lo > hi:
+                continue
+            box = (c[0] - r, c[0] + r, c[1] - r, c[1] + r, lo, hi)
+            win = self._window(m, o, box, reach)
+            if win is not None:
+                self._cast_post(depth, rays, win, o, h, c, r, base, top)
+        for prism in scene.prisms:
+            lo, hi = max(prism.base_m, h - reach), min(prism.top_m, h + reach)
+            if lo > hi:
+                continue
+            cn, ce = prism.corners_ne_m[:, 0], prism.corners_ne_m[:, 1]
+            box = (cn.min(), cn.max(), ce.min(), ce.max(), lo, hi)
+            win = self._window(m, o, box, reach)
+            if win is not None:
+                self._cast_prism(depth, rays, win, o, h, prism)
+        return depth
+
+    def _window(self, m: np.ndarray, o: np.ndarray, box: tuple, reach: float):
+        """The image window (row slice, column slice) the box (n0, n1, e0, e1, up0, up1) can
+        cover, or None when it is behind the camera, out of reach or out of the image."""
+        n0, n1, e0, e1, u0, u1 = box
+        gap = np.array([max(n0 - o[0], 0.0, o[0] - n1), max(e0 - o[1], 0.0, o[1] - e1),
+                        max(u0 + o[2], 0.0, -o[2] - u1)])
+        if float(np.sqrt(gap @ gap)) > reach:
+            return None
+        corners = np.array([[n, e, -u] for n in (n0, n1) for e in (e0, e1) for u in (u0, u1)])
+        q = (corners - o) @ m                       # optical coordinates of the corners (8, 3)
+        intr = self.intrinsics
+        if (q[:, 2] <= BEHIND_M).all():
+            return None
+        if (q[:, 2] <= BEHIND_M).any():
+            return slice(0, intr.height_px), slice(0, intr.width_px)
+        u = intr.fx_px * q[:, 0] / q[:, 2] + intr.cx_px
+        v = intr.fy_px * q[:, 1] / q[:, 2] + intr.cy_px
+        c0, c1 = max(int(math.floor(u.min())), 0), min(int(math.ceil(u.max())) + 1, intr.width_px)
+        r0, r1 = max(int(math.floor(v.min())), 0), min(int(math.ceil(v.max())) + 1, intr.height_px)
+        if c0 >= c1 or r0 >= r1:
+            return None
+        return slice(r0, r1), slice(c0, c1)
+
+    @staticmethod
+    def _cast_post(depth, rays, win, o, h, c, r, base, top) -> None:
+        """A vertical cylinder: its side (from outside) and its top and bottom discs. The side's
+        entry t = -(b + sqrt(b^2 - a c)) / a, written with scratch arrays (this is the loop
+        that costs: a forest's trees cover the image several times over)."""
+        dn, de, du, a, neg_inv_a = (ray[win] for ray in rays)
+        px, py = o[0] - c[0], o[1] - c[1]
+        c2 = px * px + py * py - r * r
+        hit = np.full(dn.shape, np.inf)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            if c2 > 0.0:                            # outside the circle: the side, entering
+                b = np.multiply(dn, px)
+                scratch = np.multiply(de, py)
+                b += scratch
+                disc = np.multiply(b, b)
+                np.multiply(a, c2, out=scratch)
+                disc -= scratch
+                np.sqrt(disc, out=disc)             # NaN where the ray misses the circle
+                b += disc
+                ok = b < 0.0                        # t > 0 (False where NaN)
+                np.multiply(b, neg_inv_a, out=hit)  # t
+                np.multiply(hit, du, out=scratch)   # the hit's height above the camera
+                if math.isfinite(top):
+                    ok &= scratch <= top - h
+                if base > 0.0:                      # (a base on the ground: the ground is nearer)
+                    ok &= scratch >= base - h
+                np.copyto(hit, np.inf, where=~ok)
+            for level, facing in ((top, h > top), (base, h < base and base > 0.0)):
+                if not (facing and math.isfinite(level)):
+                    continue
+                t = (level - h) / du
+                qn, qe = px + t * dn, py + t * de
+                ok = (t > 0.0) & (qn * qn + qe * qe <= r * r)
+                hit = np.where(ok, np.minimum(hit, t), hit)
+        np.minimum(depth[win], hit, out=depth[win])
+
+    @staticmethod
+    def _cast_prism(depth, rays, win, o, h, prism: Prism) -> None:
+        """A convex prism (Cyrus-Beck): the ray's entry into every side's half-space and the
+        slab between base and top; seen from outside only."""
+        dn, de, du = (ray[win] for ray in rays[:3])
+        t_in = np.zeros(dn.shape)
+        t_out = np.full(dn.shape, np.inf)
+        corners = prism.corners_ne_m
+        with np.errstate(divide="ignore", invalid="ignore"):
+            for k in range(len(corners)):
+                a, b = corners[k], corners[(k + 1) % len(corners)]
+                en, ee = b[0] - a[0], b[1] - a[1]
+                height = en * (o[1] - a[1]) - ee * (o[0] - a[0])   # >= 0: inside this side
+                rate = en * de - ee * dn
+                t = -height / rate
+                t_in = np.where(rate > 0.0, np.maximum(t_in, t), t_in)
+                t_out = np.where(rate < 0.0, np.minimum(t_out, t), t_out)
+                if height < 0.0:
+                    t_out = np.where(rate == 0.0, -np.inf, t_out)
+            t_base, t_top = (prism.base_m - h) / du, (prism.top_m - h) / du
+            t_in = np.maximum(t_in, np.where(du > 0.0, t_base, np.where(du < 0.0, t_top, -np.inf)))
+            t_out = np.minimum(t_out, np.where(du > 0.0, t_top, np.where(du < 0.0, t_base, np.inf)))
+            if du.size and not prism.base_m <= h <= prism.top_m:
+                t_out = np.where(du == 0.0, -np.inf, t_out)
+        hit = np.where((t_in <= t_out) & (t_in > 0.0), t_in, np.inf)
+        np.minimum(depth[win], hit, out=depth[win])
+
+
+def occlusion_shadow(depth_m: np.ndarray, fx_px: float, baseline_m: float,
+                     band_px: int | None = None) -> np.ndarray:
+    """(H, W) bool: pixels the second imager (baseline_m to the right) cannot see.
+
+    band_px None: the stereo geometry. A pixel u of disparity d_u lands at u - d_u in the second
+    image; pixel p is hidden there by a nearer pixel to its right that lands left of it:
+    min over u > p of (u - d_u) < p - d_p; and p - d_p < 0 is outside the second image (the
+    invalid band down the image's left side). band_px: the band_px pixels left of every step
+    toward the camera (depth falling by more than 1% from one pixel to the next)."""
+    h, w = depth_m.shape
+    cols = np.arange(w, dtype=float)[None, :]
+    if band_px is None:
+        with np.errstate(divide="ignore"):
+            s = cols - (fx_px * baseline_m) / depth_m                 # landing column
+        nearer_right = np.minimum.accumulate(s[:, ::-1], axis=1)[:, ::-1]
+        ahead = np.concatenate([nearer_right[:, 1:], np.full((h, 1), np.inf)], axis=1)
+        return (ahead < s) | (s < 0.0)
+    if band_px == 0:
+        return np.zeros((h, w), dtype=bool)
+    step = np.zeros((h, w), dtype=bool)
+    step[:, 1:] = depth_m[:, :-1] > depth_m[:, 1:] * 1.01
+    starts = np.where(step, cols - band_px, np.inf)
+    reach = np.minimum.accumulate(starts[:, ::-1], axis=1)[:, ::-1]
+    ahead = np.concatenate([reach[:, 1:], np.full((h, 1), np.inf)], axis=1)
+    return ahead <= cols
+
+
+def sensor_errors(depth_m: np.ndarray, intr: DepthIntrinsics, errors: StereoErrors,
+                  rng: np.random.Generator) -> np.ndarray:
+    """True depth (H, W) metres (inf: nothing) -> Z16 pixels (uint16, depth_scale units, 0: no
+    data). Draws two patch grids from ``rng`` every frame, whatever is switched on."""
+    h, w = depth_m.shape
+    p = errors.noise_patch_px
+    grid = (-(-h // p), -(-w // p))
+    unit = rng.standard_normal(grid)
+    holes = rng.random(grid) < errors.dropout_fraction
+    z = depth_m
+    if errors.depth_noise:
+        noise = _upsample(unit, p, h, w)
+        with np.errstate(invalid="ignore"):
+            z = depth_m + noise * stereo_sigma_z_m(np.where(np.isfinite(depth_m), depth_m, 0.0),
+                                                   intr.fx_px, errors.baseline_m, errors.subpixel)
+    valid = np.isfinite(z) & (z >= intr.min_depth_m) & (z <= intr.max_depth_m)
+    if errors.edge_shadow:
+        valid &= ~occlusion_shadow(depth_m, intr.fx_px, errors.baseline_m, errors.shadow_band_px)
+    if errors.dropout_fraction > 0.0:
+        valid &= ~_upsample(holes, p, h, w)
+    with np.errstate(invalid="ignore"):
+        units = np.rint(z * (1.0 / intr.depth_scale_m))
+    np.clip(units, 1.0, 65535.0, out=units)
+    return np.where(valid, units, 0.0).astype(np.uint16)
+
+
+def _upsample(grid: np.ndarray, p: int, h: int, w: int) -> np.ndarray:
+    """Each cell of ``grid`` repeated over a p x p patch, cropped to (h, w)."""
+    gh, gw = grid.shape
+    return np.broadcast_to(grid[:, None, :, None], (gh, p, gw, p)).reshape(gh * p, gw * p)[:h, :w]
