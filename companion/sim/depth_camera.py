@@ -18,7 +18,7 @@ from companion.config.scenario import Scenario
 from companion.config.world import World
 from companion.core.perception.depth_frame import CameraMount, DepthFrame, rotation_zyx
 from companion.core.geometry import wrap_angle
-from companion.sim.depth_render import DepthRenderer, DepthScene, Prism, StereoErrors, sensor_errors
+from companion.sim.depth_render import DepthRenderer, DepthScene, ErrorModel, Prism, StereoErrors
 
 GRAVITY_MPS2 = 9.80665
 
@@ -86,10 +86,10 @@ def camera_pose(pose: TruePose, mount: CameraMount) -> tuple[np.ndarray, np.ndar
 
 
 def render_true_m(renderer: DepthRenderer, scene: DepthScene, pose: TruePose,
-                  mount: CameraMount) -> np.ndarray:
-    """(H, W) true depth, metres (inf: nothing), of one camera."""
+                  mount: CameraMount, out: np.ndarray | None = None) -> np.ndarray:
+    """(H, W) true depth, metres (inf: nothing), of one camera (into ``out`` if given)."""
     rotation, origin = camera_pose(pose, mount)
-    return renderer.render_m(rotation, origin, scene)
+    return renderer.render_m(rotation, origin, scene, out)
 
 
 class SimDepthCamera:
@@ -103,6 +103,8 @@ class SimDepthCamera:
         self.mounts = sensor.camera_mounts()
         self.errors = StereoErrors.of(sensor.depth)
         self.renderer = DepthRenderer(self.intrinsics)
+        self.error_model = ErrorModel(self.intrinsics, self.errors)
+        self._true_m = np.empty((self.intrinsics.height_px, self.intrinsics.width_px))
         self.period_s = 1.0 / sensor.depth.rate_hz
         self.rng = rng
         self.next_frame = 0
@@ -140,8 +142,8 @@ class SimDepthCamera:
         scene = scene_of(self.world, t_s)
         out = []
         for camera_id, mount in enumerate(self.mounts):
-            true_m = render_true_m(self.renderer, scene, pose, mount)
-            pixels = sensor_errors(true_m, self.intrinsics, self.errors, self.rng)
+            true_m = render_true_m(self.renderer, scene, pose, mount, self._true_m)
+            pixels = self.error_model(true_m, self.rng)
             out.append(DepthFrame(frame_number, int(round(t_s * 1000.0)), camera_id,
                                   self.intrinsics, pixels))
         return out
