@@ -31,6 +31,7 @@ from companion.core.perception.depth_frame import DepthIntrinsics
 from companion.core.perception.stereo_error import stereo_sigma_z_m
 
 BEHIND_M = 1e-6      # a box corner nearer than this to the camera's plane counts as behind it
+CHUNK_PX = 8192      # a post is cast in blocks of whole columns of at most this many pixels
 
 
 @dataclass(frozen=True)
@@ -101,6 +102,10 @@ class DepthRenderer:
         self._rays = tuple(np.empty(shape) for _ in range(5))
         self._scratch = tuple(np.empty(shape) for _ in range(3))
         self._mask = (np.empty(shape, dtype=bool), np.empty(shape, dtype=bool))
+        # a post's blocks (flat, CHUNK_PX or one whole column if longer)
+        chunk = max(CHUNK_PX, intrinsics.height_px)
+        self._chunk = tuple(np.empty(chunk) for _ in range(6))
+        self._chunk_mask = np.empty(chunk, dtype=bool)
 
     def render_m(self, world_from_optical: np.ndarray, origin_ned_m: np.ndarray,
                  scene: DepthScene, out: np.ndarray | None = None) -> np.ndarray:
@@ -143,7 +148,7 @@ class DepthRenderer:
             box = (c[0] - r, c[0] + r, c[1] - r, c[1] + r, lo, hi)
             win = self._window(m, o, box, reach)
             if win is not None:
-                self._cast_post(depth, (win[1], win[0]), o, h, c, r, base, top)
+                self._cast_post(depth, (win[1], win[0]), m, o, h, c, r, base, top)
         for prism in scene.prisms:
             lo, hi = max(prism.base_m, h - reach), min(prism.top_m, h + reach)
             if lo > hi:
@@ -181,46 +186,66 @@ class DepthRenderer:
             return None
         return slice(r0, r1), slice(c0, c1)
 
-    def _cast_post(self, depth, win, o, h, c, r, base, top) -> None:
+    def _cast_post(self, depth, win, m, o, h, c, r, base, top) -> None:
         """A vertical cylinder: its side (from outside) and its top and bottom discs. The side's
-        entry t = -(b + sqrt(b^2 - a c)) / a, in place in the scratch arrays (this is the loop
-        that costs: a forest's trees cover the image several times over)."""
-        dn, de, du, a, neg_inv_a = (ray[win] for ray in self._rays)
-        b, disc, scratch = (buf[win] for buf in self._scratch)
-        ok, more = (mask[win] for mask in self._mask)       # ok: here, rejected
+        entry t = -(b + sqrt(b^2 - a c)) / a. This is the loop that costs (a forest's trees
+        cover the image several times over), so it runs on blocks of whole columns of at most
+        CHUNK_PX pixels with the rays made on the spot: every array of a block stays in the
+        cache, and only the depth goes to and from memory."""
+        cols, rows = win
+        n = rows.stop - rows.start
+        step = max(1, CHUNK_PX // n)
+        y = self._y[None, rows]
         px, py = o[0] - c[0], o[1] - c[1]
         c2 = px * px + py * py - r * r
-        view = depth[win]
+        caps = [level for level, facing in ((top, h > top), (base, h < base and base > 0.0))
+                if facing and math.isfinite(level)]
         with np.errstate(divide="ignore", invalid="ignore"):
-            if c2 > 0.0:                            # outside the circle: the side, entering
-                np.multiply(dn, px, out=b)
-                np.multiply(de, py, out=scratch)
-                b += scratch
-                np.multiply(b, b, out=disc)
-                np.multiply(a, c2, out=scratch)
-                disc -= scratch
-                np.sqrt(disc, out=disc)             # NaN where the ray misses the circle
-                b += disc
-                # Misses are NaN, and np.fmin keeps the other operand where one is NaN: the
-                # rejected hits are made NaN (np.putmask) rather than a masked minimum (a
-                # ufunc's where= runs 30 times slower on a ragged mask, measured).
-                np.greater_equal(b, 0.0, out=ok)    # t <= 0: behind
-                np.multiply(b, neg_inv_a, out=disc)  # t
-                if math.isfinite(top) or base > 0.0:
-                    np.multiply(disc, du, out=scratch)   # the hit's height above the camera
-                    if math.isfinite(top):
-                        ok |= np.greater(scratch, top - h, out=more)
-                    if base > 0.0:                  # (a base on the ground: the ground is nearer)
-                        ok |= np.less(scratch, base - h, out=more)
-                np.putmask(disc, ok, np.nan)
-                np.fmin(view, disc, out=view)
-            for level, facing in ((top, h > top), (base, h < base and base > 0.0)):
-                if not (facing and math.isfinite(level)):
-                    continue
-                t = (level - h) / du
-                qn, qe = px + t * dn, py + t * de
-                cap = (t > 0.0) & (qn * qn + qe * qe <= r * r)
-                np.minimum(view, t, out=view, where=cap)
+            for c0 in range(cols.start, cols.stop, step):
+                c1 = min(c0 + step, cols.stop)
+                size = (c1 - c0) * n
+                dn, de, du, b, disc, scratch = (buf[:size].reshape(c1 - c0, n)
+                                                for buf in self._chunk)
+                ok = self._chunk_mask[:size].reshape(c1 - c0, n)
+                x = self._x[c0:c1, None]
+                for k, ray in enumerate((dn, de, du)):
+                    np.multiply(x, m[k, 0], out=ray)
+                    ray += y * m[k, 1]
+                    ray += m[k, 2]
+                np.negative(du, out=du)                              # up
+                view = depth[c0:c1, rows]
+                if c2 > 0.0:                        # outside the circle: the side, entering
+                    np.multiply(dn, px, out=b)
+                    np.multiply(de, py, out=scratch)
+                    b += scratch
+                    np.multiply(b, b, out=disc)
+                    np.multiply(dn, dn, out=scratch)
+                    np.multiply(de, de, out=dn)     # (dn is not needed again by the side)
+                    scratch += dn                   # a
+                    np.multiply(scratch, c2, out=dn)
+                    disc -= dn
+                    b += np.sqrt(disc, out=disc)    # NaN: the ray misses
+                    # t > 0 only (b < 0); misses and rejected hits are NaN, which np.fmin skips
+                    np.greater_equal(b, 0.0, out=ok)
+                    np.divide(b, scratch, out=disc)
+                    np.negative(disc, out=disc)     # t
+                    if math.isfinite(top) or base > 0.0:
+                        np.multiply(disc, du, out=scratch)   # the hit's height over the camera
+                        if math.isfinite(top):
+                            ok |= scratch > top - h
+                        if base > 0.0:              # (a base on the ground: the ground is nearer)
+                            ok |= scratch < base - h
+                    np.putmask(disc, ok, np.nan)
+                    np.fmin(view, disc, out=view)
+                    if caps:                        # (dn was overwritten: make it again)
+                        np.multiply(x, m[0, 0], out=dn)
+                        dn += y * m[0, 1]
+                        dn += m[0, 2]
+                for level in caps:
+                    t = (level - h) / du
+                    qn, qe = px + t * dn, py + t * de
+                    cap = (t > 0.0) & (qn * qn + qe * qe <= r * r)
+                    np.minimum(view, t, out=view, where=cap)
 
     @staticmethod
     def _cast_prism(depth, rays, win, o, h, prism: Prism) -> None:
