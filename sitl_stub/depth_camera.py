@@ -9,7 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .depth_config import DepthSpec
-from .depth_render import render_ranges, to_z16
+from .depth_render import StubRenderer, to_z16
 from .telemetry import time_boot_ms
 from .world import wrap_pi
 
@@ -33,6 +33,7 @@ class DepthRig:
         self.mounts = sensor.cameras
         self.rng = rng
         self.period_s = 1.0 / self.spec.rate_hz
+        self.renderer = StubRenderer(self.spec)
         self.next_frame = 0
         world = sim.scenario.world
         self.outlines = [(list(shape.outline), shape.base_m,
@@ -66,8 +67,8 @@ class DepthRig:
                           math.inf if ob.height_m is None else ob.height_m))
         out = []
         for camera_id, mount in enumerate(self.mounts):
-            depth = render_ranges(self.spec, north, east, up, roll, pitch, yaw, mount, posts,
-                                  self.outlines)
+            depth = self.renderer.ranges(north, east, up, roll, pitch, yaw, mount, posts,
+                                         self.outlines)
             out.append(StubDepthFrame(number, time_boot_ms(t_s), camera_id, self.spec,
                                       to_z16(depth, self.spec, self.rng)))
         return out

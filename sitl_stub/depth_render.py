@@ -49,40 +49,77 @@ def camera_axes(roll: float, pitch: float, yaw: float, mount: Mount) -> np.ndarr
     return NED_TO_NEU @ body @ cam
 
 
+BLOCK_PX = 8192      # objects are cast in blocks of at most this many pixels (in the cache)
+
+
+class StubRenderer:
+    """One camera's pixel rays (kept) and its frame buffers."""
+
+    def __init__(self, spec: DepthSpec) -> None:
+        self.spec = spec
+        self.cols = (np.arange(spec.width_px) - spec.cx_px) / spec.fx_px
+        self.rows = (np.arange(spec.height_px) - spec.cy_px) / spec.fy_px
+        norm = np.sqrt(1.0 + self.cols[None, :] ** 2 + self.rows[:, None] ** 2)   # (H, W)
+        self.cos_off = 1.0 / norm
+        self.reach_per_m = float(norm.max())
+        shape = (spec.height_px, spec.width_px)
+        self.ray = [np.empty(shape) for _ in range(3)]
+        self.inv_horiz = np.empty(shape)
+        self.best = np.empty(shape)
+
+    def ranges(self, north_m: float, east_m: float, up_m: float, roll: float, pitch: float,
+               yaw: float, mount: Mount, posts, outlines) -> np.ndarray:
+        """(H, W) depth along the optical axis in metres (inf: nothing within reach); a new
+        array. posts: [(north_m, east_m, radius_m, base_m, top_m)]; outlines: [(outline
+        counter-clockwise [(n, e)], base_m, top_m)]; tops may be inf."""
+        spec = self.spec
+        axes = camera_axes(roll, pitch, yaw, mount)
+        body = _rz(yaw) @ _ry(pitch) @ _rx(roll)
+        o = np.array([north_m, east_m, up_m]) + NED_TO_NEU @ body @ np.array(mount.offset_frd_m)
+        for k in range(3):                                                 # unit, NEU
+            ray = self.ray[k]
+            np.add(axes[k, 0], self.cols[None, :] * axes[k, 1], out=ray)
+            ray += self.rows[:, None] * axes[k, 2]
+            ray *= self.cos_off
+        with np.errstate(divide="ignore"):
+            np.divide(1.0, np.hypot(self.ray[0], self.ray[1]), out=self.inv_horiz)
+        reach = spec.max_depth_m * self.reach_per_m
+        best = self.best
+        best.fill(np.inf)
+        if o[2] > 0.0:
+            below = self.ray[2] < 0.0
+            best[below] = o[2] / -self.ray[2][below]
+        for n, e, r, base, top in posts:
+            box = (n - r, n + r, e - r, e + r, max(base, o[2] - reach), min(top, o[2] + reach))
+            window = _columns_rows(spec, axes, o, box, reach)
+            for block in _blocks(window):
+                _post(best, self.ray, block, o, n, e, r, base, top, self.inv_horiz)
+        for outline, base, top in outlines:
+            ns = [p[0] for p in outline]
+            es = [p[1] for p in outline]
+            box = (min(ns), max(ns), min(es), max(es), max(base, o[2] - reach),
+                   min(top, o[2] + reach))
+            window = _columns_rows(spec, axes, o, box, reach)
+            for block in _blocks(window):
+                _outline(best, self.ray, block, o, outline, base, top)
+        return best * self.cos_off
+
+
+def _blocks(window):
+    """The window (r0, r1, c0, c1) cut into blocks of whole rows of <= BLOCK_PX pixels."""
+    if window is None:
+        return
+    r0, r1, c0, c1 = window
+    step = max(1, BLOCK_PX // (c1 - c0))
+    for row in range(r0, r1, step):
+        yield (row, min(row + step, r1), c0, c1)
+
+
 def render_ranges(spec: DepthSpec, north_m: float, east_m: float, up_m: float, roll: float,
                   pitch: float, yaw: float, mount: Mount, posts, outlines) -> np.ndarray:
-    """(H, W) depth along the optical axis in metres (inf: nothing within reach).
-
-    posts: [(north_m, east_m, radius_m, base_m, top_m)]; outlines: [(outline counter-clockwise
-    [(n, e)], base_m, top_m)]; tops may be inf."""
-    axes = camera_axes(roll, pitch, yaw, mount)
-    body = _rz(yaw) @ _ry(pitch) @ _rx(roll)
-    off = NED_TO_NEU @ body @ np.array(mount.offset_frd_m)
-    o = np.array([north_m, east_m, up_m]) + off
-    cols = (np.arange(spec.width_px) - spec.cx_px) / spec.fx_px
-    rows = (np.arange(spec.height_px) - spec.cy_px) / spec.fy_px
-    norm = np.sqrt(1.0 + cols[None, :] ** 2 + rows[:, None] ** 2)           # (H, W)
-    cos_off = 1.0 / norm
-    ray = [(axes[k, 0] + axes[k, 1] * cols[None, :] + axes[k, 2] * rows[:, None]) * cos_off
-           for k in range(3)]                                              # unit, NEU
-    reach = spec.max_depth_m * float(norm.max())
-    best = np.full((spec.height_px, spec.width_px), np.inf)
-    if o[2] > 0.0:
-        with np.errstate(divide="ignore", invalid="ignore"):
-            best = np.where(ray[2] < 0.0, o[2] / -ray[2], np.inf)
-    for n, e, r, base, top in posts:
-        box = (n - r, n + r, e - r, e + r, max(base, o[2] - reach), min(top, o[2] + reach))
-        window = _columns_rows(spec, axes, o, box, reach)
-        if window is not None:
-            _post(best, ray, window, o, n, e, r, base, top)
-    for outline, base, top in outlines:
-        ns = [p[0] for p in outline]
-        es = [p[1] for p in outline]
-        box = (min(ns), max(ns), min(es), max(es), max(base, o[2] - reach), min(top, o[2] + reach))
-        window = _columns_rows(spec, axes, o, box, reach)
-        if window is not None:
-            _outline(best, ray, window, o, outline, base, top)
-    return best * cos_off
+    """StubRenderer(spec).ranges(...): one frame with a renderer of its own."""
+    return StubRenderer(spec).ranges(north_m, east_m, up_m, roll, pitch, yaw, mount, posts,
+                                     outlines)
 
 
 def _columns_rows(spec: DepthSpec, axes: np.ndarray, o: np.ndarray, box, reach: float):
@@ -107,30 +144,33 @@ def _columns_rows(spec: DepthSpec, axes: np.ndarray, o: np.ndarray, box, reach: 
     return None if c0 >= c1 or r0 >= r1 else (r0, r1, c0, c1)
 
 
-def _post(best, ray, window, o, n, e, r, base, top) -> None:
+def _post(best, ray, window, o, n, e, r, base, top, inv_horiz) -> None:
+    """inv_horiz: 1 / the rays' horizontal share (kept per frame)."""
     r0, r1, c0, c1 = window
     ux, uy, uz = (k[r0:r1, c0:c1] for k in ray)
-    found = np.full(ux.shape, np.inf)
+    view = best[r0:r1, c0:c1]
     wx, wy = n - o[0], e - o[1]
     with np.errstate(divide="ignore", invalid="ignore"):
         if wx * wx + wy * wy > r * r:
-            horiz = np.hypot(ux, uy)
-            along = (wx * ux + wy * uy) / horiz
-            miss2 = wx * wx + wy * wy - along * along
-            s = along - np.sqrt(r * r - miss2)
-            dist = s / horiz
-            z = o[2] + dist * uz
-            side = (miss2 <= r * r) & (s > 0.0) & (z >= base) & (z <= top)
-            found = np.where(side, dist, found)
+            ih = inv_horiz[r0:r1, c0:c1]
+            along = (wx * ux + wy * uy) * ih         # along the horizontal direction
+            s = along - np.sqrt(r * r - (wx * wx + wy * wy) + along * along)   # NaN: a miss
+            dist = s * ih
+            side = s > 0.0
+            if math.isfinite(top) or base > 0.0:
+                z = o[2] + dist * uz
+                if math.isfinite(top):
+                    side &= z <= top
+                if base > 0.0:
+                    side &= z >= base
+            np.minimum(view, np.where(side, dist, np.inf), out=view)
         for level in (top, base):
             if not (math.isfinite(level) and level > 0.0):
                 continue
             dist = (level - o[2]) / uz
             px, py = o[0] + dist * ux - n, o[1] + dist * uy - e
             cap = (dist > 0.0) & (px * px + py * py <= r * r)
-            found = np.where(cap & (dist < found), dist, found)
-    view = best[r0:r1, c0:c1]
-    np.minimum(view, found, out=view)
+            np.minimum(view, np.where(cap, dist, np.inf), out=view)
 
 
 def _outline(best, ray, window, o, outline, base, top) -> None:
@@ -178,12 +218,10 @@ def shadow_mask(depth_m: np.ndarray, spec: DepthSpec) -> np.ndarray:
         return hidden
     with np.errstate(divide="ignore"):
         landing = u[None, :] - spec.fx_px * spec.baseline_m / depth_m
-    hidden = landing < 0.0
-    lowest = np.full(height, np.inf)
-    for col in range(width - 1, -1, -1):                   # right to left, the lowest landing
-        hidden[:, col] |= lowest < landing[:, col]
-        np.minimum(lowest, landing[:, col], out=lowest)
-    return hidden
+    # the lowest landing of the pixels to each one's right (a running minimum, right to left)
+    right = np.full((height, width), np.inf)
+    right[:, :-1] = np.minimum.accumulate(landing[:, :0:-1], axis=1)[:, ::-1]
+    return (landing < 0.0) | (right < landing)
 
 
 def to_z16(depth_m: np.ndarray, spec: DepthSpec, rng: np.random.Generator) -> np.ndarray:
@@ -193,18 +231,15 @@ def to_z16(depth_m: np.ndarray, spec: DepthSpec, rng: np.random.Generator) -> np
     gh, gw = (height + p - 1) // p, (width + p - 1) // p
     offsets = rng.standard_normal((gh, gw))
     holes = rng.random((gh, gw)) < spec.dropout_fraction
-    patch_rows = np.arange(height) // p
-    patch_cols = np.arange(width) // p
-    z = depth_m.copy()
-    finite = np.isfinite(z)
+    finite = np.isfinite(depth_m)
+    z = np.where(finite, depth_m, 0.0)
     if spec.depth_noise:
-        sigma = z[finite] ** 2 * spec.subpixel / (spec.fx_px * spec.baseline_m)
-        z[finite] += sigma * offsets[patch_rows[:, None], patch_cols[None, :]][finite]
+        per_pixel = np.repeat(np.repeat(offsets, p, axis=0), p, axis=1)[:height, :width]
+        z += z * z * (spec.subpixel / (spec.fx_px * spec.baseline_m)) * per_pixel
     keep = finite & (z >= spec.min_depth_m) & (z <= spec.max_depth_m)
     if spec.edge_shadow:
         keep &= ~shadow_mask(depth_m, spec)
     if spec.dropout_fraction > 0.0:
-        keep &= ~holes[patch_rows[:, None], patch_cols[None, :]]
-    out = np.zeros(depth_m.shape, dtype=np.uint16)
-    out[keep] = np.clip(np.round(z[keep] / spec.depth_scale_m), 1, 65535).astype(np.uint16)
-    return out
+        keep &= ~np.repeat(np.repeat(holes, p, axis=0), p, axis=1)[:height, :width]
+    units = np.clip(np.round(z / spec.depth_scale_m), 1, 65535)
+    return np.where(keep, units, 0).astype(np.uint16)
