@@ -145,3 +145,24 @@ def test_frames_stream_over_a_real_socket_in_lock_step_with_increasing_numbers(t
         conn.close()
         assert stub.stop() == 0
     wait_until(lambda: "frames sent" in stub.stderr(), 5.0)
+
+
+def test_the_two_occlusion_shadows_agree_and_the_stubs_noise_follows_intels_model():
+    from companion.sim.depth_render import occlusion_shadow
+    from sitl_stub.depth_render import shadow_mask
+    spec = stub_scenario(DEPTH_YAML).sensor.depth
+    posts = [(6.0, 0.0, 0.4, 0.0, math.inf), (12.0, 1.5, 1.0, 0.0, math.inf)]
+    quiet = dataclasses.replace(spec, depth_noise=False, edge_shadow=False, dropout_fraction=0.0)
+    depth = render_ranges(quiet, 0.0, 0.0, 2.0, 0.0, 0.0, 0.0, Mount(), posts, [])
+    theirs = shadow_mask(depth, spec)
+    ours = occlusion_shadow(depth, spec.fx_px, spec.baseline_m)
+    assert theirs.sum() > 1000 and (theirs == ours).all()
+    # noise on: the RMS at 4 m within 15% of sigma_z = z^2 subpixel / (fx baseline)
+    wall = [([(4.0, -30.0), (4.3, -30.0), (4.3, 30.0), (4.0, 30.0)], 0.0, 30.0)]
+    noisy = dataclasses.replace(spec, edge_shadow=False, dropout_fraction=0.0)
+    true_m = render_ranges(noisy, 0.0, 0.0, 10.0, 0.0, 0.0, 0.0, Mount(), [], wall)
+    rng = np.random.default_rng(5)
+    errors = np.concatenate([(to_z16(true_m, noisy, rng)[100:380, 200:648] * 0.001
+                              - true_m[100:380, 200:648]).ravel() for _ in range(5)])
+    model = 16.0 * spec.subpixel / (spec.fx_px * spec.baseline_m)
+    assert abs(np.sqrt(np.mean(errors ** 2)) - model) <= 0.15 * model
