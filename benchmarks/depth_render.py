@@ -7,7 +7,8 @@ step rate with the depth camera on and off.
    the view, seen from 3 m up with a flying tilt (roll 2 deg, pitch -5 deg), at 848x480 and
    424x240 (D455's 87 x 58 deg): p50 / p99 per frame of companion/sim's renderer (ray casting
    alone, the stereo errors alone, both) and of the stub's (both), over --frames frames with the
-   camera moving 0.3 m a frame. Wall time (time.perf_counter) of this process.
+   camera moving 0.3 m a frame. Wall time (time.perf_counter) of this process, and its CPU
+   time (time.process_time: without the waits for a core on a loaded machine).
 2. Lock-step: sitl-stub --lockstep on that forest (the vehicle on the ground; its camera, at the
    ground, sees the trunks), a pymavlink peer answering every sample at once; --steps steps
    with --depth-tcp (a reader taking every frame) and without. Steps per wall second, and the
@@ -69,7 +70,7 @@ def bench_render(frames: int) -> None:
         errors = ErrorModel(intr, StereoErrors.of(config))
         rng = np.random.default_rng(0)
         out = np.empty((height, width))
-        cast, noisy, both, stub = [], [], [], []
+        cast, noisy, both, stub, cpu_both, cpu_stub = [], [], [], [], [], []
         spec = stub_scenario(DEPTH_YAML).sensor.depth
         spec = type(spec)(**{**spec.__dict__, "width_px": width, "height_px": height,
                              "fx_px": intr.fx_px, "fy_px": intr.fy_px, "cx_px": intr.cx_px,
@@ -79,15 +80,19 @@ def bench_render(frames: int) -> None:
         seen = 0.0
         for k in range(frames):
             pose = TruePose(-0.3 * (k % 10), 0.0, 3.0, math.radians(2.0), math.radians(-5.0), 0.0)
+            c0 = time.process_time()
             t0 = time.perf_counter()
             true_m = render_true_m(renderer, scene, pose, CameraMount(), out)
             t1 = time.perf_counter()
             pixels = errors(true_m, rng)
             t2 = time.perf_counter()
+            c1 = time.process_time()
             to_z16(stub_renderer.ranges(pose.north_m, pose.east_m, pose.alt_m, pose.roll_rad,
                                         pose.pitch_rad, pose.yaw_rad, Mount(), trees, []), spec,
                    stub_rng)
             t3 = time.perf_counter()
+            cpu_stub.append(time.process_time() - c1)
+            cpu_both.append(c1 - c0)
             cast.append(t1 - t0)
             noisy.append(t2 - t1)
             both.append(t2 - t0)
@@ -99,6 +104,8 @@ def bench_render(frames: int) -> None:
         print(f"  companion errors        {percentiles_ms(noisy)}")
         print(f"  companion frame (both)  {percentiles_ms(both)}")
         print(f"  stub frame (both)       {percentiles_ms(stub)}")
+        print(f"  CPU time: companion frame {percentiles_ms(cpu_both)}, stub frame "
+              f"{percentiles_ms(cpu_stub)}")
 
 
 def _schedstat_ns(pid: int) -> int:

@@ -66,11 +66,12 @@ class StubRenderer:
         self.ray = [np.empty(shape) for _ in range(3)]
         self.inv_horiz = np.empty(shape)
         self.best = np.empty(shape)
+        self.out = np.empty(shape)
 
     def ranges(self, north_m: float, east_m: float, up_m: float, roll: float, pitch: float,
                yaw: float, mount: Mount, posts, outlines) -> np.ndarray:
-        """(H, W) depth along the optical axis in metres (inf: nothing within reach); a new
-        array. posts: [(north_m, east_m, radius_m, base_m, top_m)]; outlines: [(outline
+        """(H, W) depth along the optical axis in metres (inf: nothing within reach), in the
+        renderer's own array (the next frame overwrites it). posts: [(north_m, east_m, radius_m, base_m, top_m)]; outlines: [(outline
         counter-clockwise [(n, e)], base_m, top_m)]; tops may be inf."""
         spec = self.spec
         axes = camera_axes(roll, pitch, yaw, mount)
@@ -87,13 +88,19 @@ class StubRenderer:
         best = self.best
         best.fill(np.inf)
         if o[2] > 0.0:
-            below = self.ray[2] < 0.0
-            best[below] = o[2] / -self.ray[2][below]
-        for n, e, r, base, top in posts:
+            with np.errstate(divide="ignore"):
+                np.divide(-o[2], self.ray[2], out=best)
+            np.putmask(best, self.ray[2] >= 0.0, np.inf)
+        # nearest first, so that a farther trunk's block wholly behind nearer ranges (no range
+        # to it can be shorter than its horizontal gap) is skipped
+        for gap, (n, e, r, base, top) in sorted(
+                (math.hypot(p[0] - o[0], p[1] - o[1]) - p[2], p) for p in posts):
             box = (n - r, n + r, e - r, e + r, max(base, o[2] - reach), min(top, o[2] + reach))
             window = _columns_rows(spec, axes, o, box, reach)
-            for block in _blocks(window):
-                _post(best, self.ray, block, o, n, e, r, base, top, self.inv_horiz)
+            for r0, r1, c0, c1 in _blocks(window):
+                if best[r0:r1, c0:c1].max() < gap:
+                    continue
+                _post(best, self.ray, (r0, r1, c0, c1), o, n, e, r, base, top, self.inv_horiz)
         for outline, base, top in outlines:
             ns = [p[0] for p in outline]
             es = [p[1] for p in outline]
@@ -102,7 +109,8 @@ class StubRenderer:
             window = _columns_rows(spec, axes, o, box, reach)
             for block in _blocks(window):
                 _outline(best, self.ray, block, o, outline, base, top)
-        return best * self.cos_off
+        np.multiply(best, self.cos_off, out=self.out)
+        return self.out
 
 
 def _blocks(window):
@@ -225,21 +233,30 @@ def shadow_mask(depth_m: np.ndarray, spec: DepthSpec) -> np.ndarray:
 
 
 def to_z16(depth_m: np.ndarray, spec: DepthSpec, rng: np.random.Generator) -> np.ndarray:
-    """True depth -> uint16 millimetres (0: no data) with the configured errors."""
+    """True depth -> uint16 millimetres (0: no data) with the configured errors. Worked in
+    bands of whole patch rows of about BLOCK_PX pixels (small arrays, in the cache)."""
     height, width = depth_m.shape
     p = spec.noise_patch_px
     gh, gw = (height + p - 1) // p, (width + p - 1) // p
     offsets = rng.standard_normal((gh, gw))
     holes = rng.random((gh, gw)) < spec.dropout_fraction
-    finite = np.isfinite(depth_m)
-    z = np.where(finite, depth_m, 0.0)
-    if spec.depth_noise:
-        per_pixel = np.repeat(np.repeat(offsets, p, axis=0), p, axis=1)[:height, :width]
-        z += z * z * (spec.subpixel / (spec.fx_px * spec.baseline_m)) * per_pixel
-    keep = finite & (z >= spec.min_depth_m) & (z <= spec.max_depth_m)
-    if spec.edge_shadow:
-        keep &= ~shadow_mask(depth_m, spec)
-    if spec.dropout_fraction > 0.0:
-        keep &= ~np.repeat(np.repeat(holes, p, axis=0), p, axis=1)[:height, :width]
-    units = np.clip(np.round(z / spec.depth_scale_m), 1, 65535)
-    return np.where(keep, units, 0).astype(np.uint16)
+    out = np.empty((height, width), dtype=np.uint16)
+    k = spec.subpixel / (spec.fx_px * spec.baseline_m)
+    band = p * max(1, BLOCK_PX // (width * p))
+    for r0 in range(0, height, band):
+        r1 = min(r0 + band, height)
+        cells = slice(r0 // p, (r1 + p - 1) // p)
+        true_m = depth_m[r0:r1]
+        finite = np.isfinite(true_m)
+        z = np.where(finite, true_m, 0.0)
+        if spec.depth_noise:
+            per_pixel = np.repeat(np.repeat(offsets[cells], p, axis=0), p, axis=1)
+            z += z * z * k * per_pixel[:r1 - r0, :width]
+        keep = finite & (z >= spec.min_depth_m) & (z <= spec.max_depth_m)
+        if spec.edge_shadow:
+            keep &= ~shadow_mask(true_m, spec)
+        if spec.dropout_fraction > 0.0:
+            keep &= ~np.repeat(np.repeat(holes[cells], p, axis=0), p, axis=1)[:r1 - r0, :width]
+        units = np.clip(np.round(z / spec.depth_scale_m), 1, 65535)
+        out[r0:r1] = np.where(keep, units, 0)
+    return out

@@ -98,8 +98,8 @@ class DepthRenderer:
         # thin object (a post: a band of columns, every row) is one contiguous block.
         shape = (intrinsics.width_px, intrinsics.height_px)
         self._depth_t = np.empty(shape)
-        # the rays (north, east, up, horizontal square, -1 / horizontal square) and scratch
-        self._rays = tuple(np.empty(shape) for _ in range(5))
+        # the rays (north, east, up) and scratch
+        self._rays = tuple(np.empty(shape) for _ in range(3))
         self._scratch = tuple(np.empty(shape) for _ in range(3))
         self._mask = (np.empty(shape, dtype=bool), np.empty(shape, dtype=bool))
         # a post's blocks (flat, CHUNK_PX or one whole column if longer)
@@ -116,19 +116,18 @@ class DepthRenderer:
         m = np.asarray(world_from_optical, dtype=float)
         o = np.asarray(origin_ned_m, dtype=float)
         x, y = self._x[:, None], self._y[None, :]
-        dn, de, du, a, neg_inv_a = self._rays
+        dn, de, du = self._rays[:3]
         s1, s2, _ = self._scratch
-        for k, ray in enumerate((dn, de, du)):                      # (W, H) rays, NED
+        # (W, H) rays, NED: the up component for the floor, north and east for the prisms
+        # only (a post makes its own, block by block)
+        for k, ray in enumerate((dn, de, du)):
+            if k < 2 and not scene.prisms:
+                continue
             np.multiply(x, m[k, 0], out=ray)
             np.multiply(y, m[k, 1], out=s1[:1, :])
             ray += s1[:1, :]
             ray += m[k, 2]
         np.negative(du, out=du)                                      # up
-        np.multiply(dn, dn, out=a)
-        np.multiply(de, de, out=s1)
-        a += s1
-        with np.errstate(divide="ignore"):
-            np.divide(-1.0, a, out=neg_inv_a)
         h = -o[2]                                                    # the camera's altitude
         reach = intr.max_depth_m * self._max_ray
         depth = self._depth_t
@@ -138,7 +137,10 @@ class DepthRenderer:
             with np.errstate(divide="ignore", invalid="ignore"):
                 np.divide(-h, du, out=s2)
             np.copyto(depth, s2, where=below)
-        for i in range(len(scene.post_radius_m)):
+        # nearest first: a block of a farther post wholly behind what is drawn is skipped
+        gaps = np.hypot(scene.post_ne_m[:, 0] - o[0], scene.post_ne_m[:, 1] - o[1]) \
+            - scene.post_radius_m
+        for i in np.argsort(gaps, kind="stable"):
             c = scene.post_ne_m[i]
             r = float(scene.post_radius_m[i])
             base, top = float(scene.post_base_m[i]), float(scene.post_top_m[i])
@@ -148,7 +150,8 @@ class DepthRenderer:
             box = (c[0] - r, c[0] + r, c[1] - r, c[1] + r, lo, hi)
             win = self._window(m, o, box, reach)
             if win is not None:
-                self._cast_post(depth, (win[1], win[0]), m, o, h, c, r, base, top)
+                self._cast_post(depth, (win[1], win[0]), m, o, h, c, r, base, top,
+                                max(float(gaps[i]), 0.0) / self._max_ray)
         for prism in scene.prisms:
             lo, hi = max(prism.base_m, h - reach), min(prism.top_m, h + reach)
             if lo > hi:
@@ -186,12 +189,14 @@ class DepthRenderer:
             return None
         return slice(r0, r1), slice(c0, c1)
 
-    def _cast_post(self, depth, win, m, o, h, c, r, base, top) -> None:
+    def _cast_post(self, depth, win, m, o, h, c, r, base, top, nearest_m: float) -> None:
         """A vertical cylinder: its side (from outside) and its top and bottom discs. The side's
         entry t = -(b + sqrt(b^2 - a c)) / a. This is the loop that costs (a forest's trees
         cover the image several times over), so it runs on blocks of whole columns of at most
         CHUNK_PX pixels with the rays made on the spot: every array of a block stays in the
-        cache, and only the depth goes to and from memory."""
+        cache, and only the depth goes to and from memory. ``nearest_m``: no pixel can see the
+        post nearer than this (its horizontal gap over the longest ray): a block already
+        nearer everywhere is skipped (occlusion culling; the posts come nearest first)."""
         cols, rows = win
         n = rows.stop - rows.start
         step = max(1, CHUNK_PX // n)
@@ -203,6 +208,9 @@ class DepthRenderer:
         with np.errstate(divide="ignore", invalid="ignore"):
             for c0 in range(cols.start, cols.stop, step):
                 c1 = min(c0 + step, cols.stop)
+                view = depth[c0:c1, rows]
+                if view.max() < nearest_m:
+                    continue
                 size = (c1 - c0) * n
                 dn, de, du, b, disc, scratch = (buf[:size].reshape(c1 - c0, n)
                                                 for buf in self._chunk)
@@ -213,7 +221,6 @@ class DepthRenderer:
                     ray += y * m[k, 1]
                     ray += m[k, 2]
                 np.negative(du, out=du)                              # up
-                view = depth[c0:c1, rows]
                 if c2 > 0.0:                        # outside the circle: the side, entering
                     np.multiply(dn, px, out=b)
                     np.multiply(de, py, out=scratch)
