@@ -190,21 +190,29 @@ class DepthRenderer:
         return slice(r0, r1), slice(c0, c1)
 
     def _cast_post(self, depth, win, m, o, h, c, r, base, top, nearest_m: float) -> None:
-        """A vertical cylinder: its side (from outside) and its top and bottom discs. The side's
-        entry t = -(b + sqrt(b^2 - a c)) / a. This is the loop that costs (a forest's trees
-        cover the image several times over), so it runs on blocks of whole columns of at most
-        CHUNK_PX pixels with the rays made on the spot: every array of a block stays in the
-        cache, and only the depth goes to and from memory. ``nearest_m``: no pixel can see the
-        post nearer than this (its horizontal gap over the longest ray): a block already
-        nearer everywhere is skipped (occlusion culling; the posts come nearest first)."""
+        """A vertical cylinder: its side (from outside) and its top and bottom discs.
+
+        This is the loop that costs (a forest's trees cover the image several times over), so
+        it runs on blocks of whole columns of at most CHUNK_PX pixels, every array of a block in
+        the cache. The side's entry is t = (b + sqrt(b^2 + A c)) / A with A = -(dn^2 + de^2)
+        and b = px dn + py de; the ray (dn, de) is linear in the pixel's (x, y), so b is
+        bx(x) + by(y) and A is ax(x) + ay(y) + axy x y, sums of a column and a row term: three
+        full-block operations make both. ``nearest_m``: no pixel can see the post nearer than
+        this (its horizontal gap over the longest ray): a block already nearer everywhere is
+        skipped (occlusion culling; the posts come nearest first)."""
         cols, rows = win
         n = rows.stop - rows.start
         step = max(1, CHUNK_PX // n)
-        y = self._y[None, rows]
         px, py = o[0] - c[0], o[1] - c[1]
         c2 = px * px + py * py - r * r
         caps = [level for level, facing in ((top, h > top), (base, h < base and base > 0.0))
                 if facing and math.isfinite(level)]
+        bounded = math.isfinite(top) or base > 0.0
+        y = self._y[None, rows]
+        (al, be, ga), (de_, ep, ze) = m[0], m[1]          # dn = al x + be y + ga, de likewise
+        b_row = (px * be + py * ep) * y
+        a_row = -((be * be + ep * ep) * y * y + 2.0 * (be * ga + ep * ze) * y)
+        u_row = -m[2, 1] * y                                 # up = -(m20 x + m21 y + m22)
         with np.errstate(divide="ignore", invalid="ignore"):
             for c0 in range(cols.start, cols.stop, step):
                 c1 = min(c0 + step, cols.stop)
@@ -212,47 +220,39 @@ class DepthRenderer:
                 if view.max() < nearest_m:
                     continue
                 size = (c1 - c0) * n
-                dn, de, du, b, disc, scratch = (buf[:size].reshape(c1 - c0, n)
-                                                for buf in self._chunk)
+                b, big_a, disc, scratch = (buf[:size].reshape(c1 - c0, n)
+                                           for buf in self._chunk[:4])
                 ok = self._chunk_mask[:size].reshape(c1 - c0, n)
                 x = self._x[c0:c1, None]
-                for k, ray in enumerate((dn, de, du)):
-                    np.multiply(x, m[k, 0], out=ray)
-                    ray += y * m[k, 1]
-                    ray += m[k, 2]
-                np.negative(du, out=du)                              # up
                 if c2 > 0.0:                        # outside the circle: the side, entering
-                    np.multiply(dn, px, out=b)
-                    np.multiply(de, py, out=scratch)
-                    b += scratch
+                    np.add((px * al + py * de_) * x + (px * ga + py * ze), b_row, out=b)
+                    np.multiply(-2.0 * (al * be + de_ * ep) * x, y, out=big_a)
+                    big_a += -((al * al + de_ * de_) * x * x + 2.0 * (al * ga + de_ * ze) * x
+                               + (ga * ga + ze * ze))
+                    big_a += a_row
                     np.multiply(b, b, out=disc)
-                    np.multiply(dn, dn, out=scratch)
-                    np.multiply(de, de, out=dn)     # (dn is not needed again by the side)
-                    scratch += dn                   # a
-                    np.multiply(scratch, c2, out=dn)
-                    disc -= dn
+                    np.multiply(big_a, c2, out=scratch)
+                    disc += scratch
                     b += np.sqrt(disc, out=disc)    # NaN: the ray misses
                     # t > 0 only (b < 0); misses and rejected hits are NaN, which np.fmin skips
                     np.greater_equal(b, 0.0, out=ok)
-                    np.divide(b, scratch, out=disc)
-                    np.negative(disc, out=disc)     # t
-                    if math.isfinite(top) or base > 0.0:
-                        np.multiply(disc, du, out=scratch)   # the hit's height over the camera
+                    np.divide(b, big_a, out=disc)   # t
+                    if bounded:
+                        np.add(-(m[2, 0] * x + m[2, 2]), u_row, out=scratch)     # up
+                        scratch *= disc             # the hit's height over the camera
                         if math.isfinite(top):
                             ok |= scratch > top - h
                         if base > 0.0:              # (a base on the ground: the ground is nearer)
                             ok |= scratch < base - h
                     np.putmask(disc, ok, np.nan)
                     np.fmin(view, disc, out=view)
-                    if caps:                        # (dn was overwritten: make it again)
-                        np.multiply(x, m[0, 0], out=dn)
-                        dn += y * m[0, 1]
-                        dn += m[0, 2]
-                for level in caps:
-                    t = (level - h) / du
-                    qn, qe = px + t * dn, py + t * de
-                    cap = (t > 0.0) & (qn * qn + qe * qe <= r * r)
-                    np.minimum(view, t, out=view, where=cap)
+                if caps:
+                    dn, de, du = (m[k, 0] * x + m[k, 1] * y + m[k, 2] for k in range(3))
+                    for level in caps:
+                        t = (level - h) / -du
+                        qn, qe = px + t * dn, py + t * de
+                        cap = (t > 0.0) & (qn * qn + qe * qe <= r * r)
+                        np.minimum(view, t, out=view, where=cap)
 
     @staticmethod
     def _cast_prism(depth, rays, win, o, h, prism: Prism) -> None:
