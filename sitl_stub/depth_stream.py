@@ -86,11 +86,12 @@ class DepthServer:
         return self.server.sockets[0].getsockname()[:2]
 
     def send(self, frames: list) -> None:
+        messages = [encode_frame(frame) for frame in frames]
         if frames:
             last = frames[-1].frame_number
-            self.latest = [encode_frame(f) for f in frames if f.frame_number == last]
-        for frame in frames:
-            data = encode_frame(frame)
+            self.latest = [data for frame, data in zip(frames, messages)
+                           if frame.frame_number == last]
+        for data in messages:
             for client in list(self.clients):
                 transport = client.transport
                 if transport is None or transport.is_closing():

@@ -286,6 +286,9 @@ class SensorConfig:
 
     def __post_init__(self) -> None:
         check_cameras(self.form, self.cameras)
+        if self.form != "depth" and self.depth != DepthConfig():
+            raise FieldError("depth", f"the rendered image's settings are the depth form's "
+                             f"(sensor.form: depth), got form {self.form!r}")
         if self.form == "depth":
             require(self.rate_hz == self.depth.rate_hz, "rate_hz", self.rate_hz,
                     f"the depth camera's rate (sensor.depth.rate_hz = {self.depth.rate_hz:g})")

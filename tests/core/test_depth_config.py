@@ -89,3 +89,24 @@ def test_focal_lengths_instead_of_fields_of_view(tmp_path):
     assert (intr.fx_px, intr.cx_px, intr.cy_px) == (380.0, 320.5, 238.0)
     stub = stub_scenario(path).sensor.depth
     assert (stub.fx_px, stub.cx_px, stub.cy_px) == (380.0, 320.5, 238.0)
+
+
+def test_depth_settings_without_the_depth_form_are_refused_on_both_sides(tmp_path):
+    def edit(d):
+        d["sensor"]["form"] = "sectors"
+        del d["sensor"]["cameras"]
+    path = write(tmp_path, edit)
+    with pytest.raises(ConfigError, match=r"sensor\.depth: .*sensor\.form: depth"):
+        load_scenario(path)
+    with pytest.raises(ScenarioError, match=r"sensor\.depth: unknown key"):
+        stub_scenario(path)
+
+
+def test_the_stub_refuses_a_depth_stream_without_a_depth_camera():
+    import subprocess
+    import sys
+    done = subprocess.run([sys.executable, "-m", "sitl_stub", "--scenario",
+                           "config/scenarios/paper.yaml", "--tcp", "127.0.0.1:0",
+                           "--depth-tcp", "127.0.0.1:0"], cwd=REPO, capture_output=True,
+                          text=True, timeout=60)
+    assert done.returncode == 2 and "needs sensor.form: depth" in done.stderr
