@@ -107,3 +107,32 @@ def test_depth_record_needs_a_depth_scenario_and_says_so(tmp_path):
                            "config/scenarios/copter.yaml", "--rosbag", str(tmp_path / "b")],
                           cwd=REPO, capture_output=True, text=True, timeout=120)
     assert done.returncode == 2 and "needs sensor.form: depth" in done.stderr
+
+
+def test_depth_record_from_a_real_stub_stream_writes_a_bag_rosbags_reads(tmp_path):
+    pytest.importorskip("rosbags", reason="the depth extra (pip install '.[depth]') is not installed")
+    from rosbags.rosbag2 import Reader
+    data = yaml.safe_load((REPO / "config/scenarios/depth.yaml").read_text())
+    data["sensor"]["depth"].update(width_px=80, height_px=48)
+    scenario = tmp_path / "small.yaml"
+    scenario.write_text(yaml.safe_dump(data))
+    stub = subprocess.Popen([sys.executable, "-m", "sitl_stub", "--scenario", str(scenario),
+                             "--tcp", "127.0.0.1:0", "--depth-tcp", "127.0.0.1:0",
+                             "--speedup", "5"], cwd=REPO, stdout=subprocess.PIPE,
+                            stderr=subprocess.DEVNULL, text=True)
+    try:
+        fields = dict(part.split("=", 1) for part in stub.stdout.readline().split()[2:])
+        done = subprocess.run([sys.executable, "-m", "companion", "depth-record", "--stub",
+                               fields["depth"], "--frames", "12", "--rosbag",
+                               str(tmp_path / "bag")], cwd=REPO, capture_output=True,
+                              text=True, timeout=120)
+    finally:
+        stub.terminate()
+        stub.wait(timeout=10)
+    assert done.returncode == 0, done.stderr
+    with Reader(tmp_path / "bag") as reader:
+        stamps = [stamp for conn, stamp, _ in reader.messages()
+                  if conn.topic == image_topic(0)]
+    assert len(stamps) == 12
+    steps = np.diff(stamps) / 1e6
+    assert ((steps >= 66) & (steps <= 67)).all()            # consecutive frames at 15 Hz
