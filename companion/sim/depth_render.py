@@ -9,7 +9,8 @@ the range along the ray): each pixel's ray is scaled so that its optical z is 1,
 parameter at a hit is the depth itself.
 
 Each object is cast only in the image window its bounding box projects to (the full image when
-the box straddles the camera's plane), so the cost follows the pixels objects cover.
+the box straddles the camera's plane), so the cost follows the pixels objects cover; posts go
+nearest first, and a block of a post's window already nearer than the post can be is skipped.
 
 ``sensor_errors`` turns true depth into Z16 pixels (uint16 millimetres, 0 = no data) with
 Intel's stereo error as noise correlated over patches, the occlusion shadow left of every near
@@ -100,11 +101,11 @@ class DepthRenderer:
         self._depth_t = np.empty(shape)
         # the rays (north, east, up) and scratch
         self._rays = tuple(np.empty(shape) for _ in range(3))
-        self._scratch = tuple(np.empty(shape) for _ in range(3))
-        self._mask = (np.empty(shape, dtype=bool), np.empty(shape, dtype=bool))
+        self._scratch = tuple(np.empty(shape) for _ in range(2))
+        self._below = np.empty(shape, dtype=bool)
         # a post's blocks (flat, CHUNK_PX or one whole column if longer)
         chunk = max(CHUNK_PX, intrinsics.height_px)
-        self._chunk = tuple(np.empty(chunk) for _ in range(6))
+        self._chunk = tuple(np.empty(chunk) for _ in range(4))
         self._chunk_mask = np.empty(chunk, dtype=bool)
 
     def render_m(self, world_from_optical: np.ndarray, origin_ned_m: np.ndarray,
@@ -117,7 +118,7 @@ class DepthRenderer:
         o = np.asarray(origin_ned_m, dtype=float)
         x, y = self._x[:, None], self._y[None, :]
         dn, de, du = self._rays[:3]
-        s1, s2, _ = self._scratch
+        s1, s2 = self._scratch
         # (W, H) rays, NED: the up component for the floor, north and east for the prisms
         # only (a post makes its own, block by block)
         for k, ray in enumerate((dn, de, du)):
@@ -133,7 +134,7 @@ class DepthRenderer:
         depth = self._depth_t
         depth.fill(np.inf)
         if h > 0.0:
-            below = np.less(du, 0.0, out=self._mask[0])
+            below = np.less(du, 0.0, out=self._below)
             with np.errstate(divide="ignore", invalid="ignore"):
                 np.divide(-h, du, out=s2)
             np.copyto(depth, s2, where=below)
@@ -221,7 +222,7 @@ class DepthRenderer:
                     continue
                 size = (c1 - c0) * n
                 b, big_a, disc, scratch = (buf[:size].reshape(c1 - c0, n)
-                                           for buf in self._chunk[:4])
+                                           for buf in self._chunk)
                 ok = self._chunk_mask[:size].reshape(c1 - c0, n)
                 x = self._x[c0:c1, None]
                 if c2 > 0.0:                        # outside the circle: the side, entering
