@@ -64,7 +64,7 @@ class StubRenderer:
         self.reach_per_m = float(norm.max())
         shape = (spec.height_px, spec.width_px)
         self.ray = [np.empty(shape) for _ in range(3)]
-        self.inv_horiz = np.empty(shape)
+        self.horiz = [np.empty(shape) for _ in range(3)]     # north, east, 1 / share
         self.best = np.empty(shape)
         self.out = np.empty(shape)
 
@@ -82,8 +82,10 @@ class StubRenderer:
             np.add(axes[k, 0], self.cols[None, :] * axes[k, 1], out=ray)
             ray += self.rows[:, None] * axes[k, 2]
             ray *= self.cos_off
-        with np.errstate(divide="ignore"):
-            np.divide(1.0, np.hypot(self.ray[0], self.ray[1]), out=self.inv_horiz)
+        with np.errstate(divide="ignore", invalid="ignore"):     # (a ray straight down)
+            np.divide(1.0, np.hypot(self.ray[0], self.ray[1]), out=self.horiz[2])
+            np.multiply(self.ray[0], self.horiz[2], out=self.horiz[0])
+            np.multiply(self.ray[1], self.horiz[2], out=self.horiz[1])
         reach = spec.max_depth_m * self.reach_per_m
         best = self.best
         best.fill(np.inf)
@@ -100,7 +102,7 @@ class StubRenderer:
             for r0, r1, c0, c1 in _blocks(window):
                 if best[r0:r1, c0:c1].max() < gap:
                     continue
-                _post(best, self.ray, (r0, r1, c0, c1), o, n, e, r, base, top, self.inv_horiz)
+                _post(best, self.ray, (r0, r1, c0, c1), o, n, e, r, base, top, self.horiz)
         for outline, base, top in outlines:
             ns = [p[0] for p in outline]
             es = [p[1] for p in outline]
@@ -152,26 +154,32 @@ def _columns_rows(spec: DepthSpec, axes: np.ndarray, o: np.ndarray, box, reach: 
     return None if c0 >= c1 or r0 >= r1 else (r0, r1, c0, c1)
 
 
-def _post(best, ray, window, o, n, e, r, base, top, inv_horiz) -> None:
-    """inv_horiz: 1 / the rays' horizontal share (kept per frame)."""
+def _post(best, ray, window, o, n, e, r, base, top, horiz) -> None:
+    """horiz: the rays' horizontal unit directions (north, east) and 1 / their horizontal share,
+    kept per frame."""
     r0, r1, c0, c1 = window
     ux, uy, uz = (k[r0:r1, c0:c1] for k in ray)
     view = best[r0:r1, c0:c1]
     wx, wy = n - o[0], e - o[1]
     with np.errstate(divide="ignore", invalid="ignore"):
         if wx * wx + wy * wy > r * r:
-            ih = inv_horiz[r0:r1, c0:c1]
-            along = (wx * ux + wy * uy) * ih         # along the horizontal direction
-            s = along - np.sqrt(r * r - (wx * wx + wy * wy) + along * along)   # NaN: a miss
-            dist = s * ih
+            hx, hy, ih = (k[r0:r1, c0:c1] for k in horiz)
+            along = hx * wx                          # along the horizontal direction
+            along += hy * wy
+            s = along * along
+            s -= wx * wx + wy * wy - r * r
+            np.sqrt(s, out=s)                        # NaN: a miss
+            np.subtract(along, s, out=s)             # horizontal distance to the side
+            dist = np.multiply(s, ih, out=along)
             side = s > 0.0
             if math.isfinite(top) or base > 0.0:
-                z = o[2] + dist * uz
+                z = dist * uz
                 if math.isfinite(top):
-                    side &= z <= top
+                    side &= z <= top - o[2]
                 if base > 0.0:
-                    side &= z >= base
-            np.minimum(view, np.where(side, dist, np.inf), out=view)
+                    side &= z >= base - o[2]
+            np.putmask(dist, ~side, np.inf)
+            np.minimum(view, dist, out=view)
         for level in (top, base):
             if not (math.isfinite(level) and level > 0.0):
                 continue
