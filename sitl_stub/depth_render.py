@@ -83,7 +83,10 @@ class StubRenderer:
             ray += self.rows[:, None] * axes[k, 2]
             ray *= self.cos_off
         with np.errstate(divide="ignore", invalid="ignore"):     # (a ray straight down)
-            np.divide(1.0, np.hypot(self.ray[0], self.ray[1]), out=self.horiz[2])
+            share = np.multiply(self.ray[2], self.ray[2], out=self.horiz[2])
+            np.subtract(1.0, share, out=share)
+            np.sqrt(share, out=share)                            # unit rays: sqrt(1 - up^2)
+            np.divide(1.0, share, out=share)
             np.multiply(self.ray[0], self.horiz[2], out=self.horiz[0])
             np.multiply(self.ray[1], self.horiz[2], out=self.horiz[1])
         reach = spec.max_depth_m * self.reach_per_m
