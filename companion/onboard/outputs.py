@@ -37,6 +37,7 @@ class Arrived:
 
 
 Output = codec.VelocitySetpoint | codec.PoseEstimate | codec.Notice | codec.MoverReport \
+    | codec.ModeRequest \
     | codec.SectorMap | mission_codec.MissionRequest | StreamsWanted \
     | NavigatorStarted | Arrived | ParamValue | ParamChange
 
