@@ -105,6 +105,7 @@ class TruthLog:
                                                                 list(shape.outline))
                                       for shape in sim.scenario.world.shapes), default=None),
             "odom_north_m": odom.north_m, "odom_east_m": odom.east_m, "odom_yaw_rad": odom.yaw_rad,
+            **ap.truth_extras(),
         }
         if not self._shapes_written:      # static: once, on the first line (a viewer reads it)
             record["shapes"] = [{"id": shape.obstacle_id, "kind": shape.kind,

@@ -73,6 +73,10 @@ class Autopilot:
         """The mode shown, by name (the truth log's)."""
         return tm.MODE_NAMES.get(self.mode, str(self.mode))
 
+    def truth_extras(self) -> dict:
+        """The face's own truth-log fields (none for ArduCopter's)."""
+        return {}
+
     def _home_lat_lon_alt(self) -> tuple[float, float, float]:
         origin = self.sim.scenario.world.origin
         return (*origin.to_lat_lon_deg(self.home[0], self.home[1]), origin.alt_m + self.home[2])

@@ -71,6 +71,7 @@ class Px4Autopilot(Autopilot):
         self.signal_since_s: float | None = None   # the offboard signal's unbroken stream
         self.signal_last_s: float | None = None
         self.offboard_rejections = 0
+        self.setpoints_while_landed = 0      # SET_POSITION_TARGET_LOCAL_NED on the ground
         self._flown = False
 
     # ----------------------------------------------------------------- state
@@ -82,6 +83,10 @@ class Px4Autopilot(Autopilot):
     @property
     def mode_name(self) -> str:
         return px4.MODE_NAMES.get(self.nav_mode, str(self.nav_mode))
+
+    def truth_extras(self) -> dict:
+        return {"user_mode": px4.MODE_NAMES.get(self.mode, str(self.mode)),
+                "setpoints_while_landed": self.setpoints_while_landed}
 
     def signal_ok(self, t_s: float) -> bool:
         return self.signal_last_s is not None and \
@@ -206,6 +211,8 @@ class Px4Autopilot(Autopilot):
 
     # ----------------------------------------------------------------- messages
     def _on_set_position_target_local_ned(self, msg, t_s: float) -> list[Outgoing]:
+        if self.flight.land_complete and not self._addressed_to_camera(msg):
+            self.setpoints_while_landed += 1
         if self._addressed_to_camera(msg) or int(msg.coordinate_frame) not in SETPOINT_FRAMES:
             self.ignored_targets += 1
             return []

@@ -58,6 +58,13 @@ def add_parser(sub) -> None:
     p.add_argument("--view-feed", metavar="HOST:PORT",
                    help="the companion sends its live state to `companion view` there; with "
                         "--keep DIR the view can draw the truth too (DIR/truth.jsonl)")
+    p.add_argument("--stub-autopilot", choices=("ardupilot", "px4"), default="ardupilot",
+                   help="the stub's face: ArduCopter (default) or PX4 (sitl-stub --autopilot "
+                        "px4: the service runs from boot, the ground station arms, takes off to "
+                        "an AMSL altitude, and OFFBOARD is entered as --px4-offboard says)")
+    p.add_argument("--px4-offboard", choices=("operator", "companion"), default=None,
+                   help="PX4: who switches to OFFBOARD: the ground station (operator) or the "
+                        "service (companion); default: the --config's px4.offboard")
     add_autopilot_arguments(p)
     p.set_defaults(handler=run)
 
@@ -92,7 +99,8 @@ def run(args: argparse.Namespace) -> int:
         report, _, truth, samples = run_task_tree(run_demo(
                 scenario_path, scenario, files, args.speedup, args.seed, args.drop_rate,
                 Path(args.signing_key).resolve() if args.signing_key else None, args.lockstep,
-                args.view_feed, args.lockstep_overlap, base_config))
+                args.view_feed, args.lockstep_overlap, base_config, args.stub_autopilot,
+                args.px4_offboard))
         summary, arrays = score(report, truth, scenario, args.seed)
     wall_s = time.monotonic() - started
     result = demo_result(summary, arrays.pop("nees"), scenario)
@@ -104,6 +112,8 @@ def run(args: argparse.Namespace) -> int:
     t_arrival = report.get("arrival_t_s")
     result["aggregate"].update(flight_timing(
         samples, t_arrival - summary["time_s"] if t_arrival is not None else 0.0, t_arrival))
+    if args.stub_autopilot == "px4":          # ArduCopter's result stays as it was
+        result["flight"] = px4_flight(report, truth)
     if args.json:
         write_json(args.json, result)
     if args.plot:
@@ -123,4 +133,17 @@ def run(args: argparse.Namespace) -> int:
           f"urgent events {summary['urgent_events']}")
     if args.tlog:
         print(f"tlog: {args.tlog}")
+    if "flight" in result:
+        f = result["flight"]
+        print(f"PX4: OFFBOARD at {f.get('offboard_t_s')} s by the {f.get('offboard')}, "
+              f"setpoints on the ground {f.get('setpoints_while_landed')}")
     return 0 if summary["reached_goal"] else 1
+
+
+def px4_flight(report: dict, truth: list[dict]) -> dict:
+    """The PX4 demo's facts (companion/tools/px4_gcs.py), with the stub's count of setpoints
+    received while the vehicle stood on the ground."""
+    flight = dict(report.get("px4_flight") or {})
+    landed = [row["setpoints_while_landed"] for row in truth if "setpoints_while_landed" in row]
+    flight["setpoints_while_landed"] = max(landed) if landed else None
+    return flight

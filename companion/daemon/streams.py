@@ -61,9 +61,9 @@ class StreamRequests:
         vehicle = self.pipeline.vehicle
         if isinstance(event, codec.CommandAck) and codec.is_ack_for(event, "set_mode") \
                 and vehicle == (event.system_id, event.component_id):
-            log.log(logging.INFO if event.accepted else logging.WARNING,   # our ModeRequest's
-                    "mode change %s (result %d)", "accepted" if event.accepted else "refused",
-                    event.result)
+            log.log(logging.INFO if event.accepted else logging.WARNING,   # ours, or a GCS's
+                    "DO_SET_MODE answered: %s (result %d)",
+                    "accepted" if event.accepted else "refused", event.result)
         if isinstance(event, codec.CommandAck) and vehicle == (
                 event.system_id, event.component_id) and not self.acks.full():
             self.acks.put_nowait(event)
