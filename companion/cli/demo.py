@@ -65,6 +65,10 @@ def add_parser(sub) -> None:
     p.add_argument("--px4-offboard", choices=("operator", "companion"), default=None,
                    help="PX4: who switches to OFFBOARD: the ground station (operator) or the "
                         "service (companion); default: the --config's px4.offboard")
+    p.add_argument("--px4", metavar="DIR",
+                   help="fly PX4's own SITL with its SIH simulator instead of the stub: DIR is a "
+                        "PX4 SITL build (bin/px4 and etc/, built outside this repository; "
+                        "$PX4_SITL_DIR in the tests), the stub's camera beside it")
     add_autopilot_arguments(p)
     p.set_defaults(handler=run)
 
@@ -90,6 +94,8 @@ def run(args: argparse.Namespace) -> int:
         raise CompanionError("--unshaped is --autopilot's (the stub's flights are unshaped)")
     if args.autopilot:
         return run_autopilot(args, scenario_path, scenario)
+    if args.px4:
+        return run_px4(args, scenario_path, scenario)
     tlog = Path(args.tlog).resolve() if args.tlog else None
     started = time.monotonic()
     with tempfile.TemporaryDirectory(prefix="companion-demo-") as tmp:
@@ -137,6 +143,32 @@ def run(args: argparse.Namespace) -> int:
         f = result["flight"]
         print(f"PX4: OFFBOARD at {f.get('offboard_t_s')} s by the {f.get('offboard')}, "
               f"setpoints on the ground {f.get('setpoints_while_landed')}")
+    return 0 if summary["reached_goal"] else 1
+
+
+def run_px4(args: argparse.Namespace, scenario_path: Path, scenario) -> int:
+    """``--px4 DIR``: the scenario flown by PX4 SITL (companion/tools/px4_sitl_demo.py)."""
+    from companion.tools.demo_scoring import demo_result, score
+    from companion.tools.px4_sitl_demo import Px4Files, run_px4_demo
+    if args.drop_rate or args.signing_key or args.stub_autopilot != "ardupilot":
+        raise CompanionError("--px4 flies PX4's SITL: not with --drop-rate, --signing-key or "
+                             "--stub-autopilot")
+    started = time.monotonic()
+    with tempfile.TemporaryDirectory(prefix="companion-demo-px4-") as tmp:
+        workdir = Path(args.keep or tmp).resolve()
+        workdir.mkdir(parents=True, exist_ok=True)
+        files = Px4Files(workdir, None)
+        report, truth, flight = run_task_tree(run_px4_demo(
+            scenario_path, scenario, files, Path(args.px4).resolve(), args.seed,
+            args.px4_offboard or "operator"))
+        summary, arrays = score(report, truth, scenario, args.seed)
+    result = demo_result(summary, arrays.pop("nees"), scenario)
+    result["aggregate"]["wall_time_s"] = round(time.monotonic() - started, 2)
+    result["flight"] = flight
+    if args.json:
+        write_json(args.json, result)
+    print_summary(result, sys.stdout)
+    print(f"PX4 SITL: OFFBOARD at {flight.get('offboard_t_s')} s by the {flight.get('offboard')}")
     return 0 if summary["reached_goal"] else 1
 
 
