@@ -75,6 +75,7 @@ def add_parser(sub) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from companion.tools.demo import DemoFiles, run_demo
+    from companion.tools.px4_stub_demo import px4_ground_station
     from companion.tools.demo_scoring import demo_result, flight_timing, score
     if args.speedup <= 0:
         raise CompanionError(f"--speedup: expected a positive number, got {args.speedup}")
@@ -106,7 +107,7 @@ def run(args: argparse.Namespace) -> int:
                 scenario_path, scenario, files, args.speedup, args.seed, args.drop_rate,
                 Path(args.signing_key).resolve() if args.signing_key else None, args.lockstep,
                 args.view_feed, args.lockstep_overlap, base_config, args.stub_autopilot,
-                args.px4_offboard))
+                args.px4_offboard, px4_ground_station))
         summary, arrays = score(report, truth, scenario, args.seed)
     wall_s = time.monotonic() - started
     result = demo_result(summary, arrays.pop("nees"), scenario)

@@ -328,7 +328,7 @@ async def run_demo(scenario_path: Path, scenario: Scenario, files: DemoFiles, sp
                    lockstep_overlap: bool = False,
                    base_config: str | Path = "config/companion.yaml",
                    stub_autopilot: str = "ardupilot", px4_offboard: str | None = None,
-                   ) -> tuple[dict, dict, list[dict], list]:
+                   px4_station=None) -> tuple[dict, dict, list[dict], list]:
     """Fly the scenario; returns (the companion's report, its config, the truth records, the
     ground station's (wall s, vehicle s) samples).
     With ``signing_key_file``, the stub, the companion and the ground station all sign.
@@ -337,7 +337,8 @@ async def run_demo(scenario_path: Path, scenario: Scenario, files: DemoFiles, sp
     (``companion view``). ``lockstep_overlap``: the stub steps on the companion's answer to the
     sample before the latest (``sitl-stub --lockstep-overlap``). ``base_config``: the service's
     settings the scenario's are laid over (demo_config). ``stub_autopilot`` 'px4': the stub's PX4
-    face, ``px4_offboard`` who switches to OFFBOARD (companion/tools/px4_gcs.py)."""
+    face, ``px4_offboard`` who switches to OFFBOARD, ``px4_station`` its ground station
+    (companion/tools/px4_stub_demo.py)."""
     px4 = stub_autopilot == "px4"
     config = px4_gcs.with_offboard(demo_config(scenario, base_config, signing_key_file),
                                    px4_offboard if px4 else None)
@@ -377,7 +378,7 @@ async def run_demo(scenario_path: Path, scenario: Scenario, files: DemoFiles, sp
             children.append(await spawn("companion", companion_args, files.workdir))
         if not lockstep:
             await start_companion()
-        report, samples = await (px4_gcs.px4_ground_station if px4 else ground_station)(
+        report, samples = await (px4_station if px4 else ground_station)(
             tcp_port, files, scenario, speedup, children, config,
             start_companion if lockstep else None)
     finally:
