@@ -77,6 +77,17 @@ def set_mode_command(request: ModeRequest) -> mavlink.MAVLink_command_long_messa
         float(sub_mode(request.custom_mode)), 0, 0, 0, 0)
 
 
+def takeoff(target_system: int, target_component: int,
+            alt_amsl_m: float) -> mavlink.MAVLink_command_long_message:
+    """MAV_CMD_NAV_TAKEOFF as PX4 reads it: param7 an AMSL altitude; param4 (yaw), param5 and
+    param6 (latitude, longitude) NaN: "here" (finite ones are a take-off position, and 0, 0 is
+    the Gulf of Guinea: PX4 SITL then sat in AUTO.TAKEOFF with no thrust until it disarmed)."""
+    nan = float("nan")
+    return mavlink.MAVLink_command_long_message(
+        target_system, target_component, mavlink.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, nan, nan, nan,
+        float(alt_amsl_m))
+
+
 def set_mode(target_system: int, target_component: int,
              custom_mode_value: int) -> mavlink.MAVLink_command_long_message:
     """The same command from a ground station (the demo's, the tests')."""

@@ -109,6 +109,28 @@ async def wait_mode(view: Px4View, modes: tuple[int, ...], what: str, timeout_s:
     log.info("%s: %s at %.1f s", what, px4_modes.mode_name(view.custom_mode), view.t_s or 0.0)
 
 
+async def wait_new_mode(view: Px4View, seen: int, names: tuple[str, ...], what: str,
+                        check) -> None:
+    """Until a mode change after ``view.modes[seen]`` to one of ``names``, armed."""
+    async with asyncio.timeout(MODE_WAIT_S):
+        while not any(name in names and armed for _, name, armed in view.modes[seen:]):
+            check()
+            await asyncio.sleep(0.05)
+    log.info("%s: %s at %.1f s", what, view.modes[-1][1], view.t_s or 0.0)
+
+
+async def switch_to_offboard(link, view: Px4View, check) -> None:
+    """The operator's switch, judged by the heartbeat, not the COMMAND_ACK: PX4 1.15 answers
+    TEMPORARILY_REJECTED without the offboard signal, later versions may answer ACCEPTED and
+    then log "Switching to Offboard is currently not available" and stay. Resent every
+    RETRY_SIM_S * 2 of vehicle time until OFFBOARD shows."""
+    async with asyncio.timeout(MODE_WAIT_S):
+        while view.custom_mode != px4_modes.OFFBOARD:
+            check()
+            link.send(px4_modes.set_mode(1, 1, px4_modes.OFFBOARD))
+            await wait_vehicle_time(view, 2 * RETRY_SIM_S, 2 * RETRY_S)
+
+
 async def fly_to_offboard(link, view: Px4View, takeoff_above_home_m: float, offboard: str,
                           check, arm_timeout_s: float) -> dict:
     """Steps 2-4 of the module docstring; returns the facts for the result."""
@@ -119,14 +141,15 @@ async def fly_to_offboard(link, view: Px4View, takeoff_above_home_m: float, offb
     await command(link, view, lambda: codec.arm(1, 1), "arm", arm_timeout_s, check)
     armed_t_s = view.t_s
     target_amsl = view.home_amsl_m + takeoff_above_home_m
-    await command(link, view, lambda: codec.takeoff(1, 1, target_amsl), "takeoff", 30.0, check)
-    await wait_mode(view, (px4_modes.AUTO_LOITER, px4_modes.OFFBOARD), "takeoff done",
-                    MODE_WAIT_S, check)
-    hold_t_s = next((t for t, name, armed in view.modes if name == "AUTO.LOITER" and armed),
-                    view.t_s)
+    seen = len(view.modes)
+    await command(link, view, lambda: px4_modes.takeoff(1, 1, target_amsl), "takeoff", 30.0,
+                  check)
+    # the heartbeat may still show the mode before the take-off: wait for a new one
+    await wait_new_mode(view, seen, ("AUTO.LOITER", "OFFBOARD"), "takeoff done", check)
+    hold_t_s = next((t for t, name, armed in view.modes[seen:] if name == "AUTO.LOITER"
+                     and armed), view.t_s)
     if offboard == "operator":
-        await command(link, view, lambda: px4_modes.set_mode(1, 1, px4_modes.OFFBOARD),
-                      "set_mode", MODE_WAIT_S, check)
+        await switch_to_offboard(link, view, check)
     await wait_mode(view, (px4_modes.OFFBOARD,), "OFFBOARD", MODE_WAIT_S, check)
     return {"autopilot": "px4", "offboard": offboard, "armed_t_s": armed_t_s,
             "takeoff_target_amsl_m": round(target_amsl, 2), "hold_t_s": hold_t_s,

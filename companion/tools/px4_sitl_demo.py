@@ -40,6 +40,7 @@ from companion.mavlink.link import open_link
 from companion.tools import px4_gcs
 from companion.tools.autopilot_demo import (in_scenario_frame, service_config, spawn_in,
                                             wait_for_camera_port)
+from companion.tools.child_lifetime import die_with_parent_hook
 from companion.tools.demo import GCS_SYSTEM_ID, Child, DemoError, DemoFiles, wait_for
 from companion.tools.demo_scoring import read_report, read_truth
 from companion.tools.flight_record import companion_setpoints, takeoff_checks
@@ -142,31 +143,33 @@ async def run_px4_demo(scenario_path: Path, scenario: Scenario, files: Px4Files,
     home_lat, home_lon = to_lat_lon_deg(origin.lat_deg, origin.lon_deg, start.north_m,
                                         start.east_m)
     children: list[Child] = []
+    here = Path.cwd()          # the children import this checkout's packages, as the stub demo's
     view = px4_gcs.Px4View()
     truth = Truth(files.truth, scenario, view)
     loop = asyncio.get_running_loop()
     service_port = ONBOARD_PORT + 1000
-    router_transport, _ = await loop.create_datagram_endpoint(
+    router_transport, router = await loop.create_datagram_endpoint(
         lambda: Router([(LOOPBACK, service_port)]), local_addr=(LOOPBACK, ONBOARD_PORT))
     try:
         camera = await spawn_in("camera", [
             sys.executable, "-m", "sitl_stub", "--camera-only", "--scenario",
-            str(Path(scenario_path).resolve()), "--connect",
-            f"udpout:{LOOPBACK}:{ONBOARD_PORT}", "--seed", str(seed)],
-            files.workdir, files.workdir, stdout=asyncio.subprocess.PIPE)
+            str(Path(scenario_path).resolve()), "--connect", f"udpin:{LOOPBACK}:0",
+            "--seed", str(seed)], here, files.workdir, stdout=asyncio.subprocess.PIPE)
         children.append(camera)
+        router.peers.add((LOOPBACK, await wait_for_camera_port(camera)))   # it speaks second
         children.append(await spawn_in("companion", [
             sys.executable, "-m", "companion", "-v", "run", "--connect",
             f"udpin:{LOOPBACK}:{service_port}", "--config", str(files.config),
             "--report", str(files.report), "--tlog", str(files.workdir / "companion.tlog")],
-            files.workdir, files.workdir))
+            here, files.workdir))
         command, env = px4_command(directory, files.px4_dir)
         env.update(PX4_HOME_LAT=f"{home_lat:.7f}", PX4_HOME_LON=f"{home_lon:.7f}",
                    PX4_HOME_ALT=f"{origin.alt_m:.2f}")
         log.info("starting PX4 SITL (SIH): %s", " ".join(command))
         proc = await asyncio.create_subprocess_exec(
             *command, cwd=files.px4_dir, env=env, stdin=asyncio.subprocess.DEVNULL,
-            stdout=open(files.workdir / "px4.stderr", "wb"), stderr=asyncio.subprocess.STDOUT)
+            stdout=open(files.workdir / "px4.stderr", "wb"), stderr=asyncio.subprocess.STDOUT,
+            preexec_fn=die_with_parent_hook())        # no PX4 left running if we die
         children.append(Child("px4", proc, files.workdir / "px4.stderr"))
         encoder = codec.Encoder(GCS_SYSTEM_ID, codec.MAV_COMP_ID_MISSIONPLANNER)
         async with open_link(f"udpin:{LOOPBACK}:{GCS_PORT}", encoder) as link:
@@ -213,7 +216,6 @@ async def fly(link, view: px4_gcs.Px4View, files: Px4Files, scenario: Scenario,
         for child in children:
             child.check_alive()
 
-    await wait_for_camera_port(children[0])
     await wait_for(lambda: view.t_s is not None, "PX4's telemetry", 60.0, children)
     link.send(codec.set_message_interval(1, 1, MSG_ID_HIL_STATE_QUATERNION, TRUTH_RATE_HZ))
     link.send(codec.request_message(1, 1, 49))            # GPS_GLOBAL_ORIGIN

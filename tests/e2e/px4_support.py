@@ -57,7 +57,8 @@ class Px4GroundStation:
         """Arm (PX4 refuses until its preflight checks pass), NAV_TAKEOFF to home's AMSL
         altitude plus ``above_home_m``, then Hold."""
         self.command(MAV.MAV_CMD_COMPONENT_ARM_DISARM, 1)
-        self.command(MAV.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, float("nan"), 0, 0,
+        nan = float("nan")            # yaw, latitude, longitude: here (not 0, 0)
+        self.command(MAV.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, nan, nan, nan,
                      self.home_amsl_m() + above_home_m)
         self.wait_mode(HOLD)
 
