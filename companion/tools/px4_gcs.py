@@ -47,7 +47,7 @@ class Px4View:
 
     def on_message(self, msg, wall_s: float) -> None:
         t_s = codec.vehicle_time_s(msg)
-        if t_s is not None:
+        if t_s is not None and msg.get_srcComponent() == 1:    # the autopilot's clock only
             self.t_s = t_s
             self.samples.append((wall_s, t_s))
         event = codec.decode(msg)
