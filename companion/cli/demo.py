@@ -69,6 +69,9 @@ def add_parser(sub) -> None:
                    help="fly PX4's own SITL with its SIH simulator instead of the stub: DIR is a "
                         "PX4 SITL build (bin/px4 and etc/, built outside this repository; "
                         "$PX4_SITL_DIR in the tests), the stub's camera beside it")
+    p.add_argument("--px4-kill-at-north", type=float, metavar="M",
+                   help="with --px4: SIGKILL the service once the vehicle passes north M m, let "
+                        "PX4's offboard-loss fallback hold it, start a new service")
     add_autopilot_arguments(p)
     p.set_defaults(handler=run)
 
@@ -161,7 +164,7 @@ def run_px4(args: argparse.Namespace, scenario_path: Path, scenario) -> int:
         files = Px4Files(workdir, None)
         report, truth, flight = run_task_tree(run_px4_demo(
             scenario_path, scenario, files, Path(args.px4).resolve(), args.seed,
-            args.px4_offboard or "operator"))
+            args.px4_offboard or "operator", kill_at_north_m=args.px4_kill_at_north))
         summary, arrays = score(report, truth, scenario, args.seed)
     result = demo_result(summary, arrays.pop("nees"), scenario)
     result["aggregate"]["wall_time_s"] = round(time.monotonic() - started, 2)

@@ -9,6 +9,7 @@ offboard signal, no position) with COMMAND_ACK TEMPORARILY_REJECTED.
 """
 from __future__ import annotations
 
+import struct
 from dataclasses import dataclass
 
 from companion.mavlink.dialect import mavlink
@@ -86,6 +87,15 @@ def takeoff(target_system: int, target_component: int,
     return mavlink.MAVLink_command_long_message(
         target_system, target_component, mavlink.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, nan, nan, nan,
         float(alt_amsl_m))
+
+
+def param_set_int(target_system: int, target_component: int, name: str,
+                  value: int) -> mavlink.MAVLink_param_set_message:
+    """PARAM_SET of an INT32 parameter as PX4 reads it: the integer's bits in the float
+    (bytewise encoding, MAV_PROTOCOL_CAPABILITY_PARAM_ENCODE_BYTEWISE)."""
+    raw = struct.unpack("<f", struct.pack("<i", int(value)))[0]
+    return mavlink.MAVLink_param_set_message(target_system, target_component, name.encode(),
+                                             raw, mavlink.MAV_PARAM_TYPE_INT32)
 
 
 def set_mode(target_system: int, target_component: int,

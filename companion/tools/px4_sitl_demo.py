@@ -53,6 +53,7 @@ MSG_ID_HIL_STATE_QUATERNION = 115
 TRUTH_RATE_HZ = 10.0
 BOOT_BUDGET_S = 180.0          # PX4 boot to armable (about 35 s with SIH), wall
 SIH_QUADX = "10040"
+RESTART_AFTER_S = 3.0          # vehicle seconds held before the new service starts
 
 
 def check_dir(directory: Path) -> None:
@@ -94,6 +95,8 @@ class Truth:
         self.scenario, self.view = scenario, view
         self.origin_ne_m: tuple[float, float] | None = None
         self.landed_state: int | None = None
+        self.north_m: float | None = None
+        self.speed_mps = 0.0
 
     def on_message(self, msg) -> None:
         origin = self.scenario.world.origin
@@ -106,6 +109,7 @@ class Truth:
         elif kind == "HIL_STATE_QUATERNION" and self.view.t_s is not None:
             north, east = to_north_east_m(origin.lat_deg, origin.lon_deg, msg.lat / 1e7,
                                           msg.lon / 1e7)
+            self.north_m, self.speed_mps = north, math.hypot(msg.vx, msg.vy) / 100.0
             w, x, y, z = msg.attitude_quaternion
             yaw = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
             obstacles = [{"id": ob.id, "north_m": ob.north_m, "east_m": ob.east_m,
@@ -130,10 +134,13 @@ def px4_command(directory: Path, workdir: Path) -> tuple[list[str], dict]:
 
 
 async def run_px4_demo(scenario_path: Path, scenario: Scenario, files: Px4Files, directory: Path,
-                       seed: int, offboard: str, takeoff_alt_m: float = 10.0
-                       ) -> tuple[dict, list[dict], dict]:
+                       seed: int, offboard: str, takeoff_alt_m: float = 10.0,
+                       kill_at_north_m: float | None = None) -> tuple[dict, list[dict], dict]:
     """Fly the scenario on PX4 SITL (SIH); returns (the service's report in the scenario frame,
-    the truth records, the flight's facts)."""
+    the truth records, the flight's facts). ``kill_at_north_m``: SIGKILL the service once the
+    true position passes this north (scenario frame), let PX4's offboard-loss fallback
+    (COM_OBL_RC_ACT 5, Hold, set here as docs/real-vehicle.md says) hold the vehicle, and start
+    a new service (``restart``)."""
     check_dir(directory)
     config = px4_gcs.with_offboard(service_config(scenario, takeoff_alt_m, shaped=False),
                                    offboard)
@@ -157,11 +164,14 @@ async def run_px4_demo(scenario_path: Path, scenario: Scenario, files: Px4Files,
             "--seed", str(seed)], here, files.workdir, stdout=asyncio.subprocess.PIPE)
         children.append(camera)
         router.peers.add((LOOPBACK, await wait_for_camera_port(camera)))   # it speaks second
-        children.append(await spawn_in("companion", [
-            sys.executable, "-m", "companion", "-v", "run", "--connect",
-            f"udpin:{LOOPBACK}:{service_port}", "--config", str(files.config),
-            "--report", str(files.report), "--tlog", str(files.workdir / "companion.tlog")],
-            here, files.workdir))
+        async def start_service(name: str = "companion") -> Child:
+            return await spawn_in(name, [
+                sys.executable, "-m", "companion", "-v", "run", "--connect",
+                f"udpin:{LOOPBACK}:{service_port}", "--config", str(files.config),
+                "--report", str(files.report), "--tlog", str(files.workdir / f"{name}.tlog")],
+                here, files.workdir)
+
+        children.append(await start_service())
         command, env = px4_command(directory, files.px4_dir)
         env.update(PX4_HOME_LAT=f"{home_lat:.7f}", PX4_HOME_LON=f"{home_lon:.7f}",
                    PX4_HOME_ALT=f"{origin.alt_m:.2f}")
@@ -178,7 +188,7 @@ async def run_px4_demo(scenario_path: Path, scenario: Scenario, files: Px4Files,
                          tg.create_task(watch(link, view, truth), name="gcs-watch")]
                 try:
                     facts = await fly(link, view, files, scenario, children, offboard,
-                                      takeoff_alt_m)
+                                      takeoff_alt_m, truth, kill_at_north_m, start_service)
                 finally:
                     for task in tasks:
                         task.cancel()
@@ -211,7 +221,8 @@ async def watch(link, view: px4_gcs.Px4View, truth: Truth) -> None:
 
 
 async def fly(link, view: px4_gcs.Px4View, files: Px4Files, scenario: Scenario,
-              children: list[Child], offboard: str, takeoff_alt_m: float) -> dict:
+              children: list[Child], offboard: str, takeoff_alt_m: float, truth: Truth,
+              kill_at_north_m: float | None, start_service) -> dict:
     def check() -> None:
         for child in children:
             child.check_alive()
@@ -220,12 +231,46 @@ async def fly(link, view: px4_gcs.Px4View, files: Px4Files, scenario: Scenario,
     link.send(codec.set_message_interval(1, 1, MSG_ID_HIL_STATE_QUATERNION, TRUTH_RATE_HZ))
     link.send(codec.request_message(1, 1, 49))            # GPS_GLOBAL_ORIGIN
     await wait_for(lambda: read_report(files.report), "the service's estimator", 60.0, children)
+    for _ in range(3):                  # offboard loss: Hold (docs/real-vehicle.md section 8)
+        link.send(px4_modes.param_set_int(1, 1, "COM_OBL_RC_ACT", 5))
     try:
         facts = await px4_gcs.fly_to_offboard(link, view, takeoff_alt_m, offboard, check,
                                               BOOT_BUDGET_S)
     except TimeoutError:
         raise DemoError(f"PX4 workflow stalled (modes seen: {view.modes})") from None
     link.send(codec.request_message(1, 1, 49))
+    if kill_at_north_m is not None:
+        facts.update(await kill_and_restart(view, truth, children, kill_at_north_m,
+                                            start_service))
     await wait_for(lambda: (r := read_report(files.report)) and r.get("arrived") and r,
                    "the service to report arrival", scenario.mission.max_time_s + 60.0, children)
     return facts
+
+
+async def kill_and_restart(view: px4_gcs.Px4View, truth: Truth, children: list[Child],
+                           north_m: float, start_service) -> dict:
+    """SIGKILL the service past ``north_m``; PX4 holds after COM_OF_LOSS_T; a new service after
+    RESTART_AFTER_S of the vehicle held; OFFBOARD again once its stream flows (OFFBOARD is still
+    the user's mode during the fallback)."""
+    await wait_for(lambda: truth.north_m is not None and truth.north_m >= north_m,
+                   f"the vehicle past north {north_m} m", 120.0, children)
+    service = next(c for c in children if c.name == "companion")
+    service.proc.kill()
+    await service.proc.wait()
+    children.remove(service)
+    killed = {"killed_t_s": view.t_s, "killed_north_m": truth.north_m,
+              "killed_speed_mps": truth.speed_mps}
+    await wait_for(lambda: view.custom_mode not in (None, px4_modes.OFFBOARD),
+                   "PX4's offboard-loss fallback", 30.0, children)
+    fallback = px4_modes.mode_name(view.custom_mode)
+    fallback_t_s = view.t_s
+    await wait_for(lambda: truth.speed_mps < 0.2, "the vehicle held", 30.0, children)
+    held_t_s = view.t_s
+    await wait_for(lambda: view.t_s >= held_t_s + RESTART_AFTER_S, "the restart delay", 30.0,
+                   children)
+    children.append(await start_service("companion-restarted"))
+    restarted_t_s = view.t_s
+    await wait_for(lambda: view.custom_mode == px4_modes.OFFBOARD, "OFFBOARD again", 90.0,
+                   children)
+    return {**killed, "fallback": fallback, "fallback_t_s": fallback_t_s,
+            "held_t_s": held_t_s, "restarted_t_s": restarted_t_s, "offboard_again_t_s": view.t_s}
