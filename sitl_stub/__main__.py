@@ -1,9 +1,10 @@
-"""sitl-stub: the paper's 2D model behind an ArduCopter-like MAVLink face.
+"""sitl-stub: the paper's 2D model behind an ArduCopter-like (or PX4-like) MAVLink face.
 
     sitl-stub --scenario PATH [--tcp HOST:PORT|none] [--udp HOST:PORT] [--speedup N] [--seed S]
               [--truth-log PATH] [--drop-rate P] [--sysid N] [--signing-key FILE] [--streams-off]
               [--lockstep] [--lockstep-timeout-s S] [--route] [--message-rate MSG_ID:HZ]
               [--fixed-rate MSG_ID:HZ] [--no-camera] [--depth-tcp HOST:PORT]
+              [--autopilot ardupilot|px4] [--px4-arm-delay-s S]   # PX4's face: sitl_stub/px4.py
     sitl-stub --camera-only --connect URL --scenario PATH [--seed S] [--sysid N]
               [--ekf-origin N,E] [--sectors]     # the camera alone, beside any autopilot
 
@@ -35,7 +36,8 @@ from .lockstep import (DEFAULT_TIMEOUT_S, MSG_ID_ODOMETRY, SAMPLE_IDS, LockstepG
 from .params import ParamTable
 from .sim import Simulation
 from .streams import STREAMABLE
-from .telemetry import COMP_AUTOPILOT, MODE_NAMES
+from .px4_tables import STREAMABLE as PX4_STREAMABLE
+from .telemetry import COMP_AUTOPILOT
 from . import shapes
 from .world import Scenario, ScenarioError, load_scenario, obstacles_at
 
@@ -70,6 +72,8 @@ class Options:
     fixed_rates: tuple[tuple[int, float], ...] = ()        # (message id, Hz) whatever is asked
     no_camera: bool = False                                # the camera sends nothing
     depth_tcp: Endpoint | None = None       # the depth stream's server (sensor.form depth)
+    autopilot: str = "ardupilot"     # the face: 'ardupilot' (ArduCopter) or 'px4' (sitl_stub/px4.py)
+    px4_arm_delay_s: float = 35.0    # PX4 face: arming refused this long after boot
 
 
 def _extent_record(world, obstacle_id: int) -> dict:
@@ -95,7 +99,7 @@ class TruthLog:
         record = {
             "t_s": round(t_s, 6), "north_m": truth.north_m, "east_m": truth.east_m,
             "yaw_rad": truth.yaw_rad, "speed_mps": truth.speed_mps, "armed": ap.armed,
-            "mode": MODE_NAMES.get(ap.mode, str(ap.mode)),
+            "mode": ap.mode_name,
             "vel_north_mps": truth.vel_north_mps, "vel_east_mps": truth.vel_east_mps,
             "up_m": truth.up_m, "vel_up_mps": truth.vel_up_mps, "landed": ap.flight.land_complete,
             "obstacles": [{"id": i, "north_m": n, "east_m": e, "radius_m": r,
@@ -106,6 +110,7 @@ class TruthLog:
                                                                 list(shape.outline))
                                       for shape in sim.scenario.world.shapes), default=None),
             "odom_north_m": odom.north_m, "odom_east_m": odom.east_m, "odom_yaw_rad": odom.yaw_rad,
+            **ap.truth_extras(),
         }
         if not self._shapes_written:      # static: once, on the first line (a viewer reads it)
             record["shapes"] = [{"id": shape.obstacle_id, "kind": shape.kind,
@@ -165,6 +170,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--depth-tcp", default="none", metavar="HOST:PORT",
                    help="serve the depth cameras' frames (a sensor.form depth scenario) on this "
                         "local TCP address, docs/depth.md (port 0: any; default none)")
+    p.add_argument("--autopilot", choices=("ardupilot", "px4"), default="ardupilot",
+                   help="the vehicle's face: ArduCopter (default) or PX4 (sitl_stub/px4.py: "
+                        "OFFBOARD, PX4's modes, streams and parameters)")
+    p.add_argument("--px4-arm-delay-s", type=float, default=None, metavar="S",
+                   help="PX4 face: arming refused this long after boot, the preflight checks "
+                        "(default 35, as PX4's SIH SITL)")
     p.add_argument("--log-level", default="INFO", help="stderr log level (default INFO)")
     cam = p.add_argument_group("camera only: the stub's camera beside any autopilot")
     cam.add_argument("--camera-only", action="store_true",
@@ -209,21 +220,35 @@ def parse_options(argv: list[str] | None) -> Options:
                    seed=args.seed, truth_log=Path(args.truth_log) if args.truth_log else None,
                    drop_rate=args.drop_rate, sysid=sysid, signing_key=key,
                    streams_off=args.streams_off, lockstep=lockstep, route=args.route,
-                   boot_intervals=tuple(_message_rate(text) for text in args.message_rate),
-                   fixed_rates=tuple(_message_rate(text, "--fixed-rate")
+                   boot_intervals=tuple(_message_rate(text, args.autopilot)
+                                        for text in args.message_rate),
+                   fixed_rates=tuple(_message_rate(text, args.autopilot, "--fixed-rate")
                                      for text in args.fixed_rate),
-                   no_camera=args.no_camera)
+                   no_camera=args.no_camera,
+                   autopilot=args.autopilot, px4_arm_delay_s=_arm_delay(args))
 
 
-def _message_rate(text: str, option: str = "--message-rate") -> tuple[int, float]:
+def _arm_delay(args) -> float:
+    if args.px4_arm_delay_s is None:
+        return 35.0
+    if args.autopilot != "px4":
+        raise ValueError("--px4-arm-delay-s is the PX4 face's (--autopilot px4)")
+    if not 0.0 <= args.px4_arm_delay_s <= 600.0:
+        raise ValueError(f"--px4-arm-delay-s must be in [0, 600], got {args.px4_arm_delay_s}")
+    return args.px4_arm_delay_s
+
+
+def _message_rate(text: str, autopilot: str = "ardupilot",
+                  option: str = "--message-rate") -> tuple[int, float]:
     msg_id, _, rate = text.partition(":")
     try:
         result = int(msg_id), float(rate)
     except ValueError:
         raise ValueError(f"{option}: expected MSG_ID:HZ, got {text!r}") from None
-    if result[0] not in STREAMABLE or not (0.0 < result[1] <= 1000.0):
+    streamable = PX4_STREAMABLE if autopilot == "px4" else STREAMABLE
+    if result[0] not in streamable or not (0.0 < result[1] <= 1000.0):
         raise ValueError(f"{option}: {text!r}: a streamable message id "
-                         f"({', '.join(map(str, STREAMABLE))}) and 0 < HZ <= 1000")
+                         f"({', '.join(map(str, streamable))}) and 0 < HZ <= 1000")
     return result
 
 
@@ -449,8 +474,14 @@ async def raise_on(stop: asyncio.Event) -> None:
 
 async def run_stub(opts: Options) -> None:
     sim = Simulation(opts.scenario, seed=opts.seed)
-    params = ParamTable(sysid=opts.sysid, streams_off=opts.streams_off)
-    ap = Autopilot(sim, params, start_unix_s=time.time())
+    if opts.autopilot == "px4":
+        from .px4 import Px4Autopilot
+        from .px4_tables import Px4Params
+        ap = Px4Autopilot(sim, Px4Params(sysid=opts.sysid), start_unix_s=time.time(),
+                          arm_delay_s=opts.px4_arm_delay_s)
+    else:
+        params = ParamTable(sysid=opts.sysid, streams_off=opts.streams_off)
+        ap = Autopilot(sim, params, start_unix_s=time.time())
     cam = CameraComponent(sim)
     inbox: collections.deque = collections.deque()
     overflow = [0]
@@ -503,12 +534,13 @@ async def run_stub(opts: Options) -> None:
             tcp = "%s:%d" % hub.tcp_address if hub.tcp_address else "-"
             udp = "%s:%d" % hub.udp_address if hub.udp_address else "-"
             log.info("scenario %r (%s): dt %.3f s, speedup %g, seed %d, drop rate %g, sysid %d, "
-                     "signing %s, streams %s, lock-step %s", opts.scenario.name,
+                     "signing %s, streams %s, lock-step %s, face %s", opts.scenario.name,
                      opts.scenario.path, sim.dt_s, opts.speedup, opts.seed, opts.drop_rate,
                      opts.sysid, "on" if opts.signing_key else "off",
                      "off" if opts.streams_off else "default",
                      f"on (timeout {opts.lockstep.timeout_s:g} s"
-                     f"{', overlapped' if opts.lockstep.overlap else ''})" if opts.lockstep else "off")
+                     f"{', overlapped' if opts.lockstep.overlap else ''})" if opts.lockstep else "off",
+                     opts.autopilot)
             print(f"SITL_STUB READY tcp={tcp} udp={udp}{ready_depth}", flush=True)
             try:
                 async with asyncio.TaskGroup() as tg:

@@ -68,6 +68,15 @@ class Autopilot:
         self.on_signing_request = None  # set by the links: SETUP_SIGNING(key bytes, timestamp)
         self.mission = MissionStore(self._home_lat_lon_alt)
 
+    @property
+    def mode_name(self) -> str:
+        """The mode shown, by name (the truth log's)."""
+        return tm.MODE_NAMES.get(self.mode, str(self.mode))
+
+    def truth_extras(self) -> dict:
+        """The face's own truth-log fields (none for ArduCopter's)."""
+        return {}
+
     def _home_lat_lon_alt(self) -> tuple[float, float, float]:
         origin = self.sim.scenario.world.origin
         return (*origin.to_lat_lon_deg(self.home[0], self.home[1]), origin.alt_m + self.home[2])

@@ -73,7 +73,7 @@ class StreamScheduler:
     def clone_for_link(self) -> "StreamScheduler":
         """A link's own scheduler, as the shared one stands now (same intervals, same due
         times: the link's messages carry on without a gap or a burst)."""
-        other = StreamScheduler(self._params)
+        other = type(self)(self._params)
         other.fixed_s = self.fixed_s
         other._override_s = dict(self._override_s)
         other._next_due_s = dict(self._next_due_s)
@@ -170,8 +170,9 @@ class StreamScheduler:
 class LinkSchedulers:
     """The shared scheduler (every link that never asked) and the links' own ones."""
 
-    def __init__(self, params: ParamTable) -> None:
-        self.shared = StreamScheduler(params)
+    def __init__(self, params: ParamTable, scheduler=None) -> None:
+        """``scheduler``: the StreamScheduler class (the PX4 face's has PX4's defaults)."""
+        self.shared = (scheduler or StreamScheduler)(params)
         self.own: dict[str, StreamScheduler] = {}
 
     def for_link(self, link: str | None) -> StreamScheduler:

@@ -58,12 +58,27 @@ def add_parser(sub) -> None:
     p.add_argument("--view-feed", metavar="HOST:PORT",
                    help="the companion sends its live state to `companion view` there; with "
                         "--keep DIR the view can draw the truth too (DIR/truth.jsonl)")
+    p.add_argument("--stub-autopilot", choices=("ardupilot", "px4"), default="ardupilot",
+                   help="the stub's face: ArduCopter (default) or PX4 (sitl-stub --autopilot "
+                        "px4: the service runs from boot, the ground station arms, takes off to "
+                        "an AMSL altitude, and OFFBOARD is entered as --px4-offboard says)")
+    p.add_argument("--px4-offboard", choices=("operator", "companion"), default=None,
+                   help="PX4: who switches to OFFBOARD: the ground station (operator) or the "
+                        "service (companion); default: the --config's px4.offboard")
+    p.add_argument("--px4", metavar="DIR",
+                   help="fly PX4's own SITL with its SIH simulator instead of the stub: DIR is a "
+                        "PX4 SITL build (bin/px4 and etc/, built outside this repository; "
+                        "$PX4_SITL_DIR in the tests), the stub's camera beside it")
+    p.add_argument("--px4-kill-at-north", type=float, metavar="M",
+                   help="with --px4: SIGKILL the service once the vehicle passes north M m, let "
+                        "PX4's offboard-loss fallback hold it, start a new service")
     add_autopilot_arguments(p)
     p.set_defaults(handler=run)
 
 
 def run(args: argparse.Namespace) -> int:
     from companion.tools.demo import DemoFiles, run_demo
+    from companion.tools.px4_stub_demo import px4_ground_station
     from companion.tools.demo_scoring import demo_result, flight_timing, score
     if args.speedup <= 0:
         raise CompanionError(f"--speedup: expected a positive number, got {args.speedup}")
@@ -83,6 +98,8 @@ def run(args: argparse.Namespace) -> int:
         raise CompanionError("--unshaped is --autopilot's (the stub's flights are unshaped)")
     if args.autopilot:
         return run_autopilot(args, scenario_path, scenario)
+    if args.px4:
+        return run_px4(args, scenario_path, scenario)
     tlog = Path(args.tlog).resolve() if args.tlog else None
     started = time.monotonic()
     with tempfile.TemporaryDirectory(prefix="companion-demo-") as tmp:
@@ -92,7 +109,8 @@ def run(args: argparse.Namespace) -> int:
         report, _, truth, samples = run_task_tree(run_demo(
                 scenario_path, scenario, files, args.speedup, args.seed, args.drop_rate,
                 Path(args.signing_key).resolve() if args.signing_key else None, args.lockstep,
-                args.view_feed, args.lockstep_overlap, base_config))
+                args.view_feed, args.lockstep_overlap, base_config, args.stub_autopilot,
+                args.px4_offboard, px4_ground_station))
         summary, arrays = score(report, truth, scenario, args.seed)
     wall_s = time.monotonic() - started
     result = demo_result(summary, arrays.pop("nees"), scenario)
@@ -104,6 +122,8 @@ def run(args: argparse.Namespace) -> int:
     t_arrival = report.get("arrival_t_s")
     result["aggregate"].update(flight_timing(
         samples, t_arrival - summary["time_s"] if t_arrival is not None else 0.0, t_arrival))
+    if args.stub_autopilot == "px4":          # ArduCopter's result stays as it was
+        result["flight"] = px4_flight(report, truth)
     if args.json:
         write_json(args.json, result)
     if args.plot:
@@ -123,4 +143,43 @@ def run(args: argparse.Namespace) -> int:
           f"urgent events {summary['urgent_events']}")
     if args.tlog:
         print(f"tlog: {args.tlog}")
+    if "flight" in result:
+        f = result["flight"]
+        print(f"PX4: OFFBOARD at {f.get('offboard_t_s')} s by the {f.get('offboard')}, "
+              f"setpoints on the ground {f.get('setpoints_while_landed')}")
     return 0 if summary["reached_goal"] else 1
+
+
+def run_px4(args: argparse.Namespace, scenario_path: Path, scenario) -> int:
+    """``--px4 DIR``: the scenario flown by PX4 SITL (companion/tools/px4_sitl_demo.py)."""
+    from companion.tools.demo_scoring import demo_result, score
+    from companion.tools.px4_sitl_demo import Px4Files, run_px4_demo
+    if args.drop_rate or args.signing_key or args.stub_autopilot != "ardupilot":
+        raise CompanionError("--px4 flies PX4's SITL: not with --drop-rate, --signing-key or "
+                             "--stub-autopilot")
+    started = time.monotonic()
+    with tempfile.TemporaryDirectory(prefix="companion-demo-px4-") as tmp:
+        workdir = Path(args.keep or tmp).resolve()
+        workdir.mkdir(parents=True, exist_ok=True)
+        files = Px4Files(workdir, None)
+        report, truth, flight = run_task_tree(run_px4_demo(
+            scenario_path, scenario, files, Path(args.px4).resolve(), args.seed,
+            args.px4_offboard or "operator", kill_at_north_m=args.px4_kill_at_north))
+        summary, arrays = score(report, truth, scenario, args.seed)
+    result = demo_result(summary, arrays.pop("nees"), scenario)
+    result["aggregate"]["wall_time_s"] = round(time.monotonic() - started, 2)
+    result["flight"] = flight
+    if args.json:
+        write_json(args.json, result)
+    print_summary(result, sys.stdout)
+    print(f"PX4 SITL: OFFBOARD at {flight.get('offboard_t_s')} s by the {flight.get('offboard')}")
+    return 0 if summary["reached_goal"] else 1
+
+
+def px4_flight(report: dict, truth: list[dict]) -> dict:
+    """The PX4 demo's facts (companion/tools/px4_gcs.py), with the stub's count of setpoints
+    received while the vehicle stood on the ground."""
+    flight = dict(report.get("px4_flight") or {})
+    landed = [row["setpoints_while_landed"] for row in truth if "setpoints_while_landed" in row]
+    flight["setpoints_while_landed"] = max(landed) if landed else None
+    return flight

@@ -22,7 +22,9 @@ from companion.core.avoidance.guidance import GuidanceParams
 from companion.core.avoidance.look_at import GoalLookParams, LookAtParams
 from companion.core.avoidance.union import UnionParams
 from companion.onboard.flight_phase import FlightPhaseParams
+from companion.config.px4 import Px4Config
 from companion.config.restart import RestartConfig
+from companion.onboard.autopilot_dialect import AUTOPILOTS
 
 
 @dataclass(frozen=True)
@@ -34,6 +36,9 @@ class LinkConfig:
     vehicle_component_id: int | None = None   # None: the component of that heartbeat
     camera_component_id: int = 100            # MAV_COMP_ID_CAMERA: obstacle reports come from here
     guided_custom_mode: int = 4               # ArduCopter GUIDED
+    # The autopilot's dialect: 'auto' from the vehicle's HEARTBEAT.autopilot (12: PX4, anything
+    # else: ArduPilot), or pinned (companion/onboard/autopilot_dialect.py; PX4: the px4 section)
+    autopilot: str = "auto"
     heartbeat_rate_hz: float = 1.0
     heartbeat_timeout_s: float = 3.0          # vehicle heartbeat older than this: stop commanding
     reconnect_interval_s: float = 1.0
@@ -61,6 +66,8 @@ class LinkConfig:
             require(value is None or 1 <= value <= 255, key, value, "an id in [1, 255] or null")
         require(self.guided_custom_mode >= 0, "guided_custom_mode", self.guided_custom_mode,
                 "a custom mode number >= 0")
+        require(self.autopilot in AUTOPILOTS, "autopilot", self.autopilot,
+                " | ".join(AUTOPILOTS))
         for key in ("heartbeat_rate_hz", "heartbeat_timeout_s", "reconnect_interval_s",
                     "param_rate_hz"):
             require_positive(key, getattr(self, key))
@@ -318,6 +325,7 @@ class CompanionConfig:
     map_out: MapOutputConfig = field(default_factory=MapOutputConfig)
     fly_to: FlyToConfig = field(default_factory=FlyToConfig)
     restart: RestartConfig = field(default_factory=RestartConfig)
+    px4: Px4Config = field(default_factory=Px4Config)     # OFFBOARD: who switches, when
     # points' z (with avoidance.vertical: the floor dropped, landmarks' heights; onboard/heights.py)
     perception: PerceptionConfig = field(default_factory=PerceptionConfig)
 

@@ -77,6 +77,8 @@ def replay_tlog(path: str | Path, config: CompanionConfig,
     if len(result.recorded_keys) == len(result.replayed_keys) + 1 and result.last_us is not None:
         # the daemon's shutdown: SIGINT/SIGTERM while commanding sent one stop setpoint
         for output in pipeline.stop_setpoint(result.last_us / 1e6):
+            if not isinstance(output, codec.VelocitySetpoint):
+                continue                  # PX4's Hold request after it: no setpoint
             result.setpoints.append(output)
             result.replayed_keys.append(codec.setpoint_key_of(output))
     result.wall_s = time.perf_counter() - started

@@ -180,6 +180,9 @@ class Service:
             link.send(codec.set_position_target(output))
         elif isinstance(output, codec.PoseEstimate):
             link.send(codec.odometry(output))
+        elif isinstance(output, codec.ModeRequest):
+            log.info("asking the vehicle for mode %d (%s)", output.custom_mode, output.reason)
+            link.send(codec.set_mode_command(output))
         elif isinstance(output, codec.Notice):
             self._send_notice(output)
         elif isinstance(output, codec.MoverReport):
@@ -301,10 +304,13 @@ class Service:
         await self.stop.wait()
         # The vehicle would coast on its last velocity until GUID_TIMEOUT: tell it to stop.
         now_us = self._now_us()
-        for setpoint in self.pipeline.stop_setpoint(now_us / 1e6):
-            self.link.send(codec.set_position_target(setpoint))
+        for output in self.pipeline.stop_setpoint(now_us / 1e6):
+            if isinstance(output, codec.ModeRequest):     # PX4: Hold after our own OFFBOARD
+                await self._dispatch(output)
+                continue
+            self.link.send(codec.set_position_target(output))
             log.info("shutdown: stop setpoint sent (velocity 0, yaw %.1f deg)",
-                     math.degrees(setpoint.yaw_rad))
+                     math.degrees(output.yaw_rad))
         raise ShutdownRequested()
 
     # ------------------------------------------------------------ results

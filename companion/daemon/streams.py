@@ -61,6 +61,11 @@ class StreamRequests:
     def on_event(self, event) -> None:
         """A received event: the vehicle's acks, odometry seen, the odometry streams counted."""
         vehicle = self.pipeline.vehicle
+        if isinstance(event, codec.CommandAck) and codec.is_ack_for(event, "set_mode") \
+                and vehicle == (event.system_id, event.component_id):
+            log.log(logging.INFO if event.accepted else logging.WARNING,   # ours, or a GCS's
+                    "DO_SET_MODE answered: %s (result %d)",
+                    "accepted" if event.accepted else "refused", event.result)
         if isinstance(event, codec.CommandAck) and vehicle == (
                 event.system_id, event.component_id) and not self.acks.full():
             self.acks.put_nowait(event)
@@ -105,8 +110,12 @@ class StreamRequests:
             if self.pipeline.vehicle is None:
                 continue                      # 'vehicle found' will ask again
             self.odometry_seen.clear()
+            px4 = self.pipeline.identity.dialect.name == "px4"
             for msg_id, rate_key in STREAMS:
-                await self._request_stream(msg_id, getattr(streams, rate_key))
+                rate_hz = getattr(streams, rate_key)
+                if px4:        # ESTIMATOR_STATUS, and never below PX4's onboard rates
+                    msg_id, rate_hz = codec.px4_stream_request(msg_id, rate_hz)
+                await self._request_stream(msg_id, rate_hz)
             self.rates.restart(self.link.now_us() / 1e6)
             if self.on_asked is not None:
                 self.on_asked(self.link.now_us() / 1e6)

@@ -12,6 +12,7 @@ scalings (1e7 degrees, millimetres, centimetres). Its modules, one job each:
   commands.py: COMMAND_LONG and stream requests to the vehicle, and their acks.
 - wire.py: bytes <-> messages (Parser, Encoder) and MAVLink 2 signing; link.py: the asyncio
   link; tlog.py: tlogs.
+- px4_modes.py: PX4's custom_mode (main and sub mode), its mode command, our ModeRequest.
 - mission_codec.py, param_codec.py: the mission and parameter protocols; gcs_codec.py: the
   demo ground station's view of an ArduPilot SITL.
 
@@ -48,5 +49,9 @@ from companion.mavlink.outbound import (STATUSTEXT_MAX_CHARS, VELOCITY_YAW_TYPE_
                                         pose_covariance_21, set_position_target, setpoint_key,
                                         setpoint_key_of, statustext, sys_status,
                                         timesync_request)
+from companion.mavlink.px4_modes import AUTO_LOITER as PX4_AUTO_LOITER  # noqa: F401
+from companion.mavlink.px4_modes import OFFBOARD as PX4_OFFBOARD  # noqa: F401
+from companion.mavlink.px4_modes import ModeRequest, set_mode_command  # noqa: F401
+from companion.mavlink.px4_modes import stream_request as px4_stream_request  # noqa: F401
 from companion.mavlink.wire import (NEW_STREAM_WINDOW, SIGNING_EPOCH_UNIX_S,  # noqa: F401
                                     Encoder, Parser, make_mavlink, signing_timestamp)

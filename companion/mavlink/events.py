@@ -38,6 +38,7 @@ class Heartbeat:
     is_autopilot: bool        # autopilot field is not MAV_AUTOPILOT_INVALID
     armed: bool
     custom_mode: int
+    autopilot: int = 0        # MAV_AUTOPILOT: 3 ArduPilot, 12 PX4 (the dialect, link.autopilot auto)
 
 
 @dataclass(frozen=True)
@@ -146,7 +147,8 @@ EKF_GPS_GLITCH = mavlink.ESTIMATOR_GPS_GLITCH
 
 @dataclass(frozen=True)
 class EkfStatus:
-    """EKF_STATUS_REPORT: is the autopilot's absolute horizontal position good?"""
+    """EKF_STATUS_REPORT (ArduPilot) or ESTIMATOR_STATUS (PX4; the same ESTIMATOR_STATUS_FLAGS
+    bits): is the autopilot's absolute horizontal position good?"""
     system_id: int
     component_id: int
     flags: int

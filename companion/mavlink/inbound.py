@@ -30,7 +30,8 @@ def decode(msg) -> Event | None:
 
 def _heartbeat(msg, sysid: int, compid: int) -> Heartbeat:
     return Heartbeat(sysid, compid, msg.type, msg.autopilot != mavlink.MAV_AUTOPILOT_INVALID,
-                     bool(msg.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED), msg.custom_mode)
+                     bool(msg.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED), msg.custom_mode,
+                     msg.autopilot)
 
 
 def _attitude(msg, sysid: int, compid: int) -> Attitude:
@@ -83,6 +84,8 @@ def _gps_raw(msg, sysid: int, compid: int) -> GpsFix:
 
 
 def _ekf_status(msg, sysid: int, compid: int) -> EkfStatus:
+    """EKF_STATUS_REPORT (ArduPilot) and ESTIMATOR_STATUS (PX4, which streams it at 1 Hz on an
+    onboard link: src/modules/mavlink/streams/ESTIMATOR_STATUS.hpp): both carry flags."""
     return EkfStatus(sysid, compid, int(msg.flags))
 
 
@@ -94,6 +97,7 @@ _DECODERS = {
     "TIMESYNC": _timesync,
     "GPS_RAW_INT": _gps_raw,
     "EKF_STATUS_REPORT": _ekf_status,
+    "ESTIMATOR_STATUS": _ekf_status,
     "HEARTBEAT": _heartbeat,
     "ATTITUDE": _attitude,
     "LOCAL_POSITION_NED": _local_position,

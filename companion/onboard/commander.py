@@ -185,6 +185,10 @@ class Commander:
             self.send(t_link_s, codec.VelocitySetpoint(
                 *p.vehicle, p.clock.latest_t_s, 0.0, 0.0,
                 wrap_angle(0.0 if yaw is None else yaw), "stop"), out)
+            if p.identity.dialect.name == "px4" and p.offboard.hand_to_hold():
+                # ours to hand back: Hold now, not the offboard-loss failsafe after COM_OF_LOSS_T
+                log.info("shutdown: OFFBOARD was ours: asking for Hold (AUTO.LOITER)")
+                out.append(codec.ModeRequest(*p.vehicle, codec.PX4_AUTO_LOITER, "stop: hold"))
         self.stopped = True
         return out
 
@@ -194,6 +198,8 @@ class Commander:
         p = self._pipeline
         if not p.commanding_allowed(t_link_s):
             p.vertical.reset()
+            if p.identity.dialect.name == "px4" and not self.stopped:
+                self._offboard_stream(t_link_s, setpoint.t_s, out)
             return
         if self.stopped:
             p.count("setpoint_after_stop")
@@ -216,6 +222,34 @@ class Commander:
             return
         self.setpoints += 1
         out.append(setpoint)
+
+    def _offboard_stream(self, t_link_s: float, t_s: float, out: list) -> None:
+        """PX4, armed but not in OFFBOARD: while airborne, a hold (velocity 0, vz 0, the
+        vehicle's yaw) in place of the decision's setpoint, which PX4 does not fly outside
+        OFFBOARD but counts as the offboard signal its switch needs; with px4.offboard
+        'companion', the request for OFFBOARD when due (onboard/autopilot_dialect.py)."""
+        p = self._pipeline
+        if p.vehicle is None or not p.armed or not p.liveness.heartbeat_fresh(t_link_s):
+            return
+        decision = p.phase.decide(t_s)
+        if decision.phase != self._phase_said:
+            self._say_phase(t_s, decision)
+        step = p.offboard.step(t_s, decision.may_command)
+        if not step.stream:
+            return
+        yaw = p.ap_yaw_rad if p.ap_yaw_rad is not None else p.attitude.latest_yaw_rad()
+        hold = codec.VelocitySetpoint(*p.vehicle, t_s, 0.0, 0.0,
+                                      wrap_angle(0.0 if yaw is None else yaw),
+                                      "hold: offboard stream")
+        if not p.gate.check(hold).passed:
+            p.count("offboard_stream_refused")
+            return
+        p.count("offboard_stream")
+        out.append(hold)
+        if step.request:
+            log.info("%s at %.1f s", step.reason, t_s)
+            out.append(codec.ModeRequest(*p.vehicle, codec.PX4_OFFBOARD, "offboard engage"))
+            out.append(codec.Notice(codec.SEVERITY_INFO, "companion: asking for OFFBOARD"))
 
     def sync_heights(self) -> None:
         """avoidance.vertical: the navigator's altitude and cruise altitude (onboard/heights.py)."""

@@ -64,7 +64,7 @@ class Goals:
             return
         position = tuple(p.navigator.slam.pose[:2]) if p.navigator is not None else None
         verdict = fly_to.judge(request, p.vehicle,
-                               p.custom_mode == config.link.guided_custom_mode,
+                               p.identity.steering,
                                self.geo_reference, position, config.fly_to)
         if verdict.reason == "not addressed to the vehicle":
             p.count("goal_request_ignored")

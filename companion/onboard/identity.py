@@ -3,13 +3,16 @@
 The vehicle is the first heartbeat from an autopilot with the wanted component id (or the pinned
 ids, ``link.vehicle_system_id`` and ``link.vehicle_component_id``); other autopilots are named
 once and ignored; the camera's heartbeat is no obstacle data (safety/liveness.py). Commanding is
-allowed while the vehicle's last heartbeat says armed and GUIDED and is fresh on the link clock.
+allowed while the vehicle's last heartbeat says armed and in the steering mode (GUIDED; OFFBOARD on
+PX4: the dialect, onboard/autopilot_dialect.py, from ``link.autopilot`` and the heartbeat's
+autopilot field) and is fresh on the link clock.
 """
 from __future__ import annotations
 
 import logging
 
 from companion.mavlink import codec
+from companion.onboard import autopilot_dialect
 from companion.onboard.outputs import StreamsWanted
 
 log = logging.getLogger(__name__)
@@ -32,6 +35,9 @@ class VehicleIdentity:
         self.other_vehicles: set[int] = set()
         self.armed = False
         self.custom_mode: int | None = None
+        # pinned, or ArduPilot until the vehicle's heartbeat says otherwise ('auto')
+        self.dialect = autopilot_dialect.resolve(link.autopilot, None, link.guided_custom_mode)
+        self._dialect_adopted = False
         self.link_lost = False
         self._allowed = False
 
@@ -41,11 +47,16 @@ class VehicleIdentity:
     def is_vehicle(self, event) -> bool:
         return (event.system_id, event.component_id) == self.vehicle
 
+    @property
+    def steering(self) -> bool:
+        """The vehicle's last heartbeat says the steering mode (GUIDED, OFFBOARD on PX4)."""
+        return self.dialect.steering(self.custom_mode)
+
     def commanding_allowed(self, t_link_s: float) -> bool:
-        """Armed, in GUIDED, and the vehicle's heartbeat is fresh: setpoints may be sent."""
+        """Armed, in the steering mode, and the vehicle's heartbeat is fresh: setpoints may be
+        sent."""
         p = self._pipeline
-        return (self.vehicle is not None and self.armed
-                and self.custom_mode == p.config.link.guided_custom_mode
+        return (self.vehicle is not None and self.armed and self.steering
                 and p.liveness.heartbeat_fresh(t_link_s))
 
     def on_heartbeat(self, t_link_s: float, hb: codec.Heartbeat, out: list) -> None:
@@ -66,7 +77,12 @@ class VehicleIdentity:
                 out.append(StreamsWanted("heartbeat back"))
             p.liveness.on_vehicle_heartbeat(t_link_s)
             p.clock.on_vehicle_heartbeat()
+            if not self._dialect_adopted:
+                self._adopt_dialect(hb.autopilot)
             self.armed, self.custom_mode = hb.armed, hb.custom_mode
+            if self.dialect.name == "px4":
+                p.offboard.on_armed(hb.armed)
+                p.offboard.on_mode(self.steering)
             p.look_around.on_heartbeat(hb.armed)
             p.phase.on_armed(hb.armed)
             p.commander.note_phase()
@@ -78,6 +94,18 @@ class VehicleIdentity:
             if hb.system_id not in self.other_vehicles:
                 self.other_vehicles.add(hb.system_id)
                 log.info("ignoring another vehicle: system %d", hb.system_id)
+
+    def _adopt_dialect(self, heartbeat_autopilot: int) -> None:
+        link = self._pipeline.config.link
+        self._dialect_adopted = True
+        self.dialect = autopilot_dialect.resolve(link.autopilot, heartbeat_autopilot,
+                                                 link.guided_custom_mode)
+        if self._pipeline.mission is not None:
+            self._pipeline.mission.home_seq = self.dialect.home_seq
+        if self.dialect.name == "px4":
+            log.info("autopilot PX4 (link.autopilot %s, heartbeat autopilot %d): steering in "
+                     "OFFBOARD, entered by the %s (px4.offboard)", link.autopilot,
+                     heartbeat_autopilot, self._pipeline.config.px4.offboard)
 
     def check_heartbeat_age(self, t_link_s: float) -> None:
         """Before every message: a heartbeat gone stale stops commanding (said once)."""
@@ -96,7 +124,9 @@ class VehicleIdentity:
         if allowed != self._allowed:
             self._allowed = allowed
             if allowed:
-                log.info("vehicle armed in GUIDED: commanding")
+                log.info("vehicle armed in %s: commanding", self.dialect.steering_name)
             else:
                 log.info("commanding stopped (armed %s, mode %s, link %s)", self.armed,
-                         self.custom_mode, "lost" if self.link_lost else "up")
+                         self.custom_mode if self.dialect.name == "ardupilot"
+                         else self.dialect.mode_name(self.custom_mode),
+                         "lost" if self.link_lost else "up")

@@ -129,11 +129,14 @@ class MissionPlan:
     skipped: tuple[str, ...] = field(default=())     # "seq: what and why", for logs and notices
 
 
-def build_plan(items: list[mc.MissionItem], default_radius_m: float) -> MissionPlan:
+def build_plan(items: list[mc.MissionItem], default_radius_m: float,
+               home_seq: int | None = HOME_SEQ) -> MissionPlan:
+    """``home_seq``: the item that is home (ArduPilot 0); None: every item is the mission's
+    (PX4 keeps home apart, in HOME_POSITION)."""
     waypoints: list[Waypoint] = []
     skipped: list[str] = []
     for item in items:
-        if item.seq == HOME_SEQ:
+        if item.seq == home_seq:
             continue                   # home, as ArduPilot stores it
         # short for a STATUSTEXT ("companion: skip 4: DO_CHANGE_SPEED not flown"); the
         # longest command names are cut at 50 characters by the codec

@@ -45,6 +45,7 @@ class MissionFollower:
                  recheck_s: float | None = None) -> None:
         self.own_component = own_component
         self.default_radius_m = default_radius_m
+        self.home_seq: int | None = 0     # ArduPilot's home item; None on PX4 (identity.py sets it)
         self.params = params
         self.vehicle: tuple[int, int] | None = None
         self.download: MissionDownload | None = None
@@ -167,11 +168,12 @@ class MissionFollower:
             self.downloads += 1
             self.refusals = 0
             self._last_download_t_s = t_s
-            self._adopt(build_plan(dl.items, self.default_radius_m), out)
+            self._adopt(build_plan(dl.items, self.default_radius_m, self.home_seq), out)
             total = self._signature[0] if self._signature is not None else None
-            if total not in (None, 0, 65535) and total != len(dl.items) - 1:
+            read = len(dl.items) - (1 if self.home_seq is not None else 0)
+            if total not in (None, 0, 65535) and total != read:
                 # MISSION_CURRENT says another length: the mission changed under the download
-                out.extend(self._start(t_s, f"{len(dl.items) - 1} items read, vehicle says {total}"))
+                out.extend(self._start(t_s, f"{read} items read, vehicle says {total}"))
 
     def _adopt(self, plan: MissionPlan, out: list) -> None:
         if self.plan is not None and plan.waypoints == self.plan.waypoints:

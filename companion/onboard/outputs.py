@@ -37,6 +37,7 @@ class Arrived:
 
 
 Output = codec.VelocitySetpoint | codec.PoseEstimate | codec.Notice | codec.MoverReport \
+    | codec.ModeRequest \
     | codec.SectorMap | mission_codec.MissionRequest | StreamsWanted \
     | NavigatorStarted | Arrived | ParamValue | ParamChange
 
@@ -133,6 +134,11 @@ def snapshot(pipeline) -> dict:
         "parameters": pipeline.params.summary(),
         **odometry_intake.snapshot(nav),
         **pipeline.heights.snapshot(nav),
+        # PX4 only (onboard/autopilot_dialect.py): ArduPilot flights' reports unchanged
+        **({"offboard": {"entry": o.params.entry, "requests": o.requests,
+                         "seen_offboard": o.seen_offboard, "engaged_by_us": o.engaged_by_us,
+                         "gave_up": o.gave_up}}
+           if pipeline.identity.dialect.name == "px4" and (o := pipeline.offboard) else {}),
         # only after a start in the air (onboard/look_around.py): other flights' reports unchanged
         **({"look_around": {"started_t_s": look.started_t_s, "ended_t_s": look.ended_t_s,
                             "end_reason": look.end_reason, "backed_off_from_m": look.backed_off_m}}

@@ -19,8 +19,10 @@ Rules (docs/messages.md repeats them):
   most ``max_attitude_age_s``, else the sample is skipped).
 - A decision (guidance, urgency, maybe a setpoint) follows each odometry sample once a setpoint
   period of message time has passed, and each obstacle report the filter absorbed.
-- Setpoints only while the last vehicle heartbeat says armed and GUIDED and is fresh, and the
-  flight phase (companion/onboard/flight_phase.py) is airborne; they hold an altitude (vz term).
+- Setpoints only while the last vehicle heartbeat says armed and GUIDED (OFFBOARD on PX4) and is
+  fresh, and the flight phase (companion/onboard/flight_phase.py) is airborne; they hold an
+  altitude (vz term). On PX4, armed and airborne outside OFFBOARD: a hold stream, the offboard
+  signal PX4's switch to OFFBOARD needs (companion/onboard/autopilot_dialect.py).
 - A goal given as latitude/longitude waits for the EKF origin (or HOME) to become metres.
 - Stale camera or an unhealthy filter: the configured safe action (hold: velocity 0, current yaw).
 - PARAM_* from a ground station (companion/onboard/parameters.py): reads and sets answered at once,
@@ -57,6 +59,7 @@ from companion.core.geometry import wrap_angle
 from companion.core.navigation.navigator import Navigator
 from companion.mavlink import codec, mission_codec
 from companion.onboard import odometry_intake
+from companion.onboard.autopilot_dialect import OffboardEntry
 from companion.onboard.attitude_pairing import TIME_EPS_S, AttitudePairing, plausible_attitude
 from companion.onboard.camera_frames import CameraFrames
 from companion.onboard.commander import Commander
@@ -118,6 +121,7 @@ class Pipeline:
         self.look_around = LookAround(config.restart.params(config.safety_distance_m))
         self.started_t_s: float | None = None
         self.phase = FlightPhase(config.flight.params())
+        self.offboard = OffboardEntry(config.px4.params())    # PX4 only (autopilot_dialect.py)
         self.vertical = VerticalHold(config.flight.params())
         self.heights = ServiceHeights(config)          # avoidance.vertical (onboard/heights.py)
         # the parts
@@ -206,7 +210,8 @@ class Pipeline:
         return self.clock.latest_t_s
 
     def commanding_allowed(self, t_link_s: float) -> bool:
-        """Armed, in GUIDED, and the vehicle's heartbeat is fresh: setpoints may be sent."""
+        """Armed, in the steering mode (GUIDED, OFFBOARD on PX4), and the vehicle's heartbeat is
+        fresh: setpoints may be sent."""
         return self.identity.commanding_allowed(t_link_s)
 
     def stop_setpoint(self, t_link_s: float) -> list[Output]:

@@ -33,7 +33,8 @@ from companion.config.service import CompanionConfig, config_to_dict, GoalConfig
 from companion.errors import CompanionError
 from companion.daemon.streams import STREAMS
 from companion.sim.simulation import perception_delay_s
-from companion.tools.demo_scoring import read_report, read_truth
+from companion.tools import px4_gcs
+from companion.tools.demo_scoring import read_report, read_truth, wait_until_settled
 
 log = logging.getLogger(__name__)
 
@@ -42,7 +43,6 @@ READY_TIMEOUT_S = 20.0
 COMMAND_RETRY_S = 0.5
 COMMAND_TIMEOUT_S = 15.0
 STOP_TIMEOUT_S = 5.0
-SETTLE_TIMEOUT_S = 3.0
 POLL_S = 0.1
 TAKEOFF_ALT_M = 10.0             # NAV_TAKEOFF altitude above home (docs/real-vehicle.md workflow)
 TAKEOFF_ATTEMPTS = 3
@@ -320,26 +320,14 @@ async def wait_for_takeoff(link, takeoff_factory, timeout_s: float, children: li
         return False
 
 
-async def wait_until_settled(truth_path: Path) -> None:
-    """Give the vehicle a moment to stop (the truth log's speed), at most SETTLE_TIMEOUT_S."""
-    try:
-        async with asyncio.timeout(SETTLE_TIMEOUT_S):
-            while True:
-                records = read_truth(truth_path, tail_only=True)
-                if records and records[-1]["speed_mps"] < 0.05:
-                    return
-                await asyncio.sleep(POLL_S)
-    except TimeoutError:
-        log.info("vehicle still moving %.0f s after arrival; scoring anyway", SETTLE_TIMEOUT_S)
-
-
 async def run_demo(scenario_path: Path, scenario: Scenario, files: DemoFiles, speedup: float,
                    seed: int, drop_rate: float, signing_key_file: Path | None = None,
                    lockstep: bool = True,
                    view_feed: str | None = None,
                    lockstep_overlap: bool = False,
                    base_config: str | Path = "config/companion.yaml",
-                   ) -> tuple[dict, dict, list[dict], list]:
+                   stub_autopilot: str = "ardupilot", px4_offboard: str | None = None,
+                   px4_station=None) -> tuple[dict, dict, list[dict], list]:
     """Fly the scenario; returns (the companion's report, its config, the truth records, the
     ground station's (wall s, vehicle s) samples).
     With ``signing_key_file``, the stub, the companion and the ground station all sign.
@@ -347,8 +335,12 @@ async def run_demo(scenario_path: Path, scenario: Scenario, files: DemoFiles, sp
     ``speedup`` on the wall clock. ``view_feed``: HOST:PORT the companion sends its live state to
     (``companion view``). ``lockstep_overlap``: the stub steps on the companion's answer to the
     sample before the latest (``sitl-stub --lockstep-overlap``). ``base_config``: the service's
-    settings the scenario's are laid over (demo_config)."""
-    config = demo_config(scenario, base_config, signing_key_file=signing_key_file)
+    settings the scenario's are laid over (demo_config). ``stub_autopilot`` 'px4': the stub's PX4
+    face, ``px4_offboard`` who switches to OFFBOARD, ``px4_station`` its ground station
+    (companion/tools/px4_stub_demo.py)."""
+    px4 = stub_autopilot == "px4"
+    config = px4_gcs.with_offboard(demo_config(scenario, base_config, signing_key_file),
+                                   px4_offboard if px4 else None)
     read_signing_key(config.link)             # a bad key file fails here, before any child
     files.config.write_text(yaml.safe_dump(config_to_dict(config)))
     for stale in (files.report, files.truth):     # a kept workdir's last run must not score
@@ -358,11 +350,10 @@ async def run_demo(scenario_path: Path, scenario: Scenario, files: DemoFiles, sp
         stub_args = [sys.executable, "-m", "sitl_stub", "--scenario", str(scenario_path),
                      "--tcp", "127.0.0.1:0", "--udp", "127.0.0.1:0", "--speedup", str(speedup),
                      "--seed", str(seed), "--truth-log", str(files.truth)]
-        # the companion's link starts with the streams it will ask for (on a real vehicle: the
-        # SRn_ parameters of its port), so that its own requests change nothing wherever in
-        # the flight they land; the ground station's requests set only its own link's
-        stub_args += [f"--message-rate={msg_id}:{getattr(config.streams, key):g}"
-                      for msg_id, key in STREAMS]
+        # ArduCopter: the companion's link starts with the streams it will ask for (SRn_ of its
+        # port), so its own requests change nothing wherever they land (PX4: its own defaults)
+        stub_args += ["--autopilot", "px4", *px4_gcs.STUB_ARGS] if px4 else [
+            f"--message-rate={msg_id}:{getattr(config.streams, key):g}" for msg_id, key in STREAMS]
         if drop_rate:
             stub_args += ["--drop-rate", str(drop_rate)]
         if signing_key_file is not None:
@@ -386,8 +377,9 @@ async def run_demo(scenario_path: Path, scenario: Scenario, files: DemoFiles, sp
             children.append(await spawn("companion", companion_args, files.workdir))
         if not lockstep:
             await start_companion()
-        report, samples = await ground_station(tcp_port, files, scenario, speedup, children,
-                                               config, start_companion if lockstep else None)
+        report, samples = await (px4_station if px4 else ground_station)(
+            tcp_port, files, scenario, speedup, children, config,
+            start_companion if lockstep else None)
     finally:
         # Stop the children together: one slow to exit must not double the wait for Ctrl-C.
         codes = await asyncio.shield(asyncio.gather(*(child.stop() for child in children)))

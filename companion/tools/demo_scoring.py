@@ -6,7 +6,9 @@ demo (companion/tools/autopilot_demo.py). Reads files, opens no socket, starts n
 """
 from __future__ import annotations
 
+import asyncio
 import json
+import logging
 import math
 from pathlib import Path
 
@@ -60,6 +62,21 @@ def read_truth(path: Path, tail_only: bool = False) -> list[dict]:
 
 
 # ------------------------------------------------------------------ scoring
+async def wait_until_settled(truth_path: Path, timeout_s: float = 3.0,
+                             poll_s: float = 0.1) -> None:
+    """Give the vehicle a moment to stop (the truth log's speed), at most ``timeout_s``."""
+    try:
+        async with asyncio.timeout(timeout_s):
+            while True:
+                records = read_truth(truth_path, tail_only=True)
+                if records and records[-1]["speed_mps"] < 0.05:
+                    return
+                await asyncio.sleep(poll_s)
+    except TimeoutError:
+        logging.getLogger(__name__).info("vehicle still moving %.0f s after arrival; scoring "
+                                         "anyway", timeout_s)
+
+
 def score(report: dict, truth: list[dict], scenario: Scenario, seed: int) -> tuple[dict, dict]:
     """The per-run summary of ``companion simulate`` and the arrays to plot."""
     t_true = np.array([r["t_s"] for r in truth])

@@ -109,7 +109,7 @@ def feed_state(pipeline, seq: int, cursor: PathCursor) -> dict:
         "feed": FEED_VERSION, "seq": seq, "t_s": pipeline.latest_t_s,
         "vehicle": list(pipeline.vehicle) if pipeline.vehicle else None,
         "armed": pipeline.armed,
-        "guided": pipeline.custom_mode == config.link.guided_custom_mode,
+        "guided": pipeline.identity.steering,       # GUIDED (OFFBOARD on PX4)
         "phase": phase.phase if phase is not None else None,
         "arrived": pipeline.arrival_t_s is not None,
         "safe_action": pipeline.safe_reason,

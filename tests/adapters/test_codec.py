@@ -20,7 +20,7 @@ def roundtrip(msg, sysid=1, compid=1):
 def test_heartbeat_roundtrip_reads_armed_and_mode():
     msg = mavlink.MAVLink_heartbeat_message(2, 3, mavlink.MAV_MODE_FLAG_SAFETY_ARMED | 1, 4, 4, 3)
     event = codec.decode(roundtrip(msg, 7, 1))
-    assert event == codec.Heartbeat(7, 1, 2, True, True, 4)
+    assert event == codec.Heartbeat(7, 1, 2, True, True, 4, autopilot=3)
 
 
 def test_our_heartbeat_is_an_onboard_controller_not_an_autopilot():
