@@ -36,7 +36,7 @@ def add_parser(sub) -> None:
 
 def choose_config(args: argparse.Namespace):
     from companion.cli.run import parse_goal
-    from companion.daemon.service import sidecar_config_path
+    from companion.daemon.replay import sidecar_config_path
     if args.config:
         path = resolve_config(args.config)
     elif sidecar_config_path(args.tlog).exists():

@@ -21,6 +21,12 @@ from companion.config.service import CompanionConfig
 from companion.onboard.pipeline import Pipeline
 
 
+def sidecar_config_path(tlog_path: str | Path) -> Path:
+    """Where the effective config of a recorded run is written (by companion run, beside its
+    tlog) and read back for its replay: FILE.tlog -> FILE.config.yaml."""
+    return Path(tlog_path).with_suffix(".config.yaml")
+
+
 @dataclass
 class ReplayResult:
     path: Path

@@ -48,6 +48,7 @@ from companion.onboard import health
 from companion.onboard.parameters import ParamChange, ParamValue
 from companion.onboard.pipeline import Arrived, NavigatorStarted, Pipeline, StreamsWanted, snapshot
 from companion.daemon.json_report import write_json
+from companion.daemon.replay import sidecar_config_path
 from companion.onboard.safety.notices import NoticeLimiter
 from companion.view import feed
 
@@ -58,19 +59,6 @@ TIMESYNC_FAST_S, TIMESYNC_FAST_COUNT, TIMESYNC_SLOW_S = 1.0, 16, 10.0
 # The report keeps the latest hour of track at 10 Hz (about 4 MB); the daemon flies for longer.
 REPORT_TRACK_ROWS = 36_000
 PLACEHOLDER_SYSTEM_ID = 1        # our system id until the vehicle's is known (if not configured)
-
-
-def describe_goal(goal) -> str:
-    if goal.mission:
-        return f"the autopilot's mission (default acceptance radius {goal.radius_m:.1f} m)"
-    if goal.is_geographic:
-        return f"lat {goal.lat_deg:.7f}, lon {goal.lon_deg:.7f} (waits for the EKF origin)"
-    return f"north {goal.north_m:.1f} m, east {goal.east_m:.1f} m"
-
-
-def sidecar_config_path(tlog_path: str | Path) -> Path:
-    """Where the effective config of a recorded run is written: FILE.tlog -> FILE.config.yaml."""
-    return Path(tlog_path).with_suffix(".config.yaml")
 
 
 class Service:
@@ -363,7 +351,7 @@ async def run_service(config: CompanionConfig, url: str, tlog_path: str | Path |
                 loop.add_signal_handler(sig, service.stop.set)
             log.info("companion up on %s%s: goal %s", url,
                      f" (local {link.local_address[0]}:{link.local_address[1]})"
-                     if link.local_address else "", describe_goal(config.goal))
+                     if link.local_address else "", config.goal.describe())
             log.info("effective config: %s", config_to_dict(config))
             if overlay is not None and overlay.error is not None:
                 service._send_notice(codec.Notice(codec.SEVERITY_ERROR,

@@ -19,10 +19,9 @@ Rules (docs/messages.md repeats them):
   most ``max_attitude_age_s``, else the sample is skipped).
 - A decision (guidance, urgency, maybe a setpoint) follows each odometry sample once a setpoint
   period of message time has passed, and each obstacle report the filter absorbed.
-- Setpoints only while the last vehicle heartbeat says armed and GUIDED (OFFBOARD on PX4) and is
-  fresh, and the flight phase (companion/onboard/flight_phase.py) is airborne; they hold an
-  altitude (vz term). On PX4, armed and airborne outside OFFBOARD: a hold stream, the offboard
-  signal PX4's switch to OFFBOARD needs (companion/onboard/autopilot_dialect.py).
+- Setpoints only while the fresh heartbeat says armed and GUIDED (OFFBOARD on PX4) and the flight
+  phase (onboard/flight_phase.py) is airborne; they hold an altitude. PX4, airborne outside
+  OFFBOARD: a hold stream, the signal its switch to OFFBOARD needs (onboard/autopilot_dialect.py).
 - A goal given as latitude/longitude waits for the EKF origin (or HOME) to become metres.
 - Stale camera or an unhealthy filter: the configured safe action (hold: velocity 0, current yaw).
 - PARAM_* from a ground station (companion/onboard/parameters.py): reads and sets answered at once,

@@ -264,7 +264,7 @@ def find_tlogs(patterns: Sequence[str]) -> list[Path]:
 
 def flight_config_path(tlog: Path, default: str | Path) -> Path:
     """As ``companion replay`` chooses: FILE.config.yaml written beside the tlog, else ``default``."""
-    from companion.daemon.service import sidecar_config_path
+    from companion.daemon.replay import sidecar_config_path
     sidecar = sidecar_config_path(tlog)
     return sidecar if sidecar.exists() else Path(default)
 
