@@ -1,0 +1,137 @@
+"""A depth frame's obstacle points (floor removed) as landmark observations with heights.
+
+The points are binned by bearing from the heading (``bins`` over the camera's horizontal view).
+Per bin, the nearest surface: the ``nearest_rank``-th nearest horizontal range (a choice, 3:
+one or two stray pixels, a speckle of noise, do not pull a bin in; a bin needs that many points
+to hold a surface at all), and its heights: the highest and lowest of the bin's points within a
+depth band behind that surface (``surface_band_m`` plus three stereo sigmas), with whether any of
+them lies on the image's top or bottom row (the surface goes on out of the view: that bound is
+not its own). A hole in the image is a missing point, nothing more: the bin's other points speak
+for it.
+
+The bins are then a depth camera's sectors, and core/perception/blobs.py turns them into
+observations as it does for the ``sectors`` form: compact blobs (posts) as centres, wider ones
+(walls, buildings' faces) as chains of surface points. Each observation then takes the heights
+of the bins it stands for: a post's, all of its blob's; a chain point's, its blob's bins within
+``chain_spacing_m`` of it along the surface. A post is also reported as centre, radius and
+vertical extent (``Post``), for the logs and the comparison with other pipelines.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from companion.core.estimation.slam_types import Observation
+from companion.core.perception.blobs import (BlobParams, SurfacePoint, blob_observations,
+                                             group_bins, sector_centres_rad)
+
+
+@dataclass(frozen=True)
+class BinnedSurface:
+    """Per bearing bin (n,): nearest horizontal range (NaN: nothing), its highest and lowest
+    point as depths below the vehicle (FRD z), whether those reached the image's top / bottom
+    row, and the bin's point count. Bins are centred on ``bearings_rad`` (from the heading,
+    right positive), ``increment_rad`` wide."""
+    ranges_m: np.ndarray = field(repr=False)
+    bearings_rad: np.ndarray = field(repr=False)
+    increment_rad: float
+    top_down_m: np.ndarray = field(repr=False)
+    bottom_down_m: np.ndarray = field(repr=False)
+    top_clipped: np.ndarray = field(repr=False)
+    bottom_clipped: np.ndarray = field(repr=False)
+    counts: np.ndarray = field(repr=False)
+
+
+@dataclass(frozen=True)
+class Post:
+    """A compact obstacle: its centre (range, bearing from the heading), radius, and the depths
+    below the vehicle of its highest and lowest points seen."""
+    range_m: float
+    bearing_rad: float
+    radius_m: float
+    top_down_m: float
+    bottom_down_m: float
+    top_clipped: bool
+    bottom_clipped: bool
+
+
+def bin_surfaces(xyz_m: np.ndarray, row: np.ndarray, rows: int, centre_rad: float,
+                 fov_rad: float, bins: int, params: BlobParams, nearest_rank: int = 3,
+                 surface_band_m: float = 0.5) -> BinnedSurface:
+    """Level points (n, 3) with their image rows (n,) -> the nearest surface per bearing bin
+    over ``fov_rad`` centred on ``centre_rad`` (the camera's yaw on the body)."""
+    increment = fov_rad / bins
+    bearings = centre_rad + sector_centres_rad(bins, fov_rad)
+    horiz = np.hypot(xyz_m[:, 0], xyz_m[:, 1])
+    offset = np.angle(np.exp(1j * (np.arctan2(xyz_m[:, 1], xyz_m[:, 0]) - centre_rad)))
+    index = np.floor((offset + 0.5 * fov_rad) / increment).astype(np.int64)
+    keep = (index >= 0) & (index < bins) & (horiz > 0.0)
+    index, horiz, z, row = index[keep], horiz[keep], xyz_m[keep, 2], row[keep]
+    order = np.lexsort((horiz, index))
+    index, horiz, z, row = index[order], horiz[order], z[order], row[order]
+    counts = np.bincount(index, minlength=bins)
+    starts = np.concatenate(([0], np.cumsum(counts)[:-1]))
+    held = counts >= nearest_rank
+    ranges = np.full(bins, np.nan)
+    ranges[held] = horiz[starts[held] + nearest_rank - 1]
+    near = ranges[index]
+    band = surface_band_m + 3.0 * np.sqrt(params.range_var(near))
+    surface = horiz <= near + band                    # False where the bin holds nothing (NaN)
+    top, bottom = np.full(bins, np.nan), np.full(bins, np.nan)
+    top_cut, bottom_cut = np.zeros(bins, bool), np.zeros(bins, bool)
+    nonempty = counts > 0
+    if nonempty.any():
+        at = starts[nonempty]
+        high = np.minimum.reduceat(np.where(surface, z, np.inf), at)
+        low = np.maximum.reduceat(np.where(surface, z, -np.inf), at)
+        top[nonempty] = np.where(np.isfinite(high), high, np.nan)
+        bottom[nonempty] = np.where(np.isfinite(low), low, np.nan)
+        top_cut[nonempty] = np.maximum.reduceat(surface & (row == 0), at)
+        bottom_cut[nonempty] = np.maximum.reduceat(surface & (row == rows - 1), at)
+    empty = ~held
+    top[empty] = bottom[empty] = np.nan
+    top_cut[empty] = bottom_cut[empty] = False
+    return BinnedSurface(ranges, bearings, increment, top, bottom, top_cut, bottom_cut, counts)
+
+
+def surface_observations(binned: BinnedSurface, params: BlobParams
+                         ) -> tuple[list[Observation], list[Post]]:
+    """The bins' blobs as observations (blobs.py), each with the heights of the bins it stands
+    for; and the compact ones as posts."""
+    ranges, bearings = binned.ranges_m, binned.bearings_rad
+    observations = blob_observations(ranges, bearings, binned.increment_rad, params)
+    if not observations:
+        return [], []
+    blob_of = np.full(len(ranges), -1)
+    blobs = group_bins(ranges, params.max_jump_m)
+    for k, blob in enumerate(blobs):
+        blob_of[blob.first:blob.last + 1] = k
+    xy = np.column_stack((ranges * np.cos(bearings), ranges * np.sin(bearings)))
+    out, posts = [], []
+    for obs in observations:
+        i = _nearest_held_bin(obs.bearing_rad, bearings, blob_of)
+        blob = blobs[blob_of[i]]
+        span = np.arange(blob.first, blob.last + 1)
+        if isinstance(obs, SurfacePoint):
+            gap = np.hypot(*(xy[span] - xy[i]).T)
+            span = span[gap <= max(params.chain_spacing_m, 1e-9)]
+        top = float(np.nanmin(binned.top_down_m[span]))
+        bottom = float(np.nanmax(binned.bottom_down_m[span]))
+        top_cut = bool(binned.top_clipped[span].any())
+        bottom_cut = bool(binned.bottom_clipped[span].any())
+        obs = replace(obs, top_down_m=top, bottom_down_m=bottom, top_clipped=top_cut,
+                      bottom_clipped=bottom_cut)
+        out.append(obs)
+        if not isinstance(obs, SurfacePoint):
+            posts.append(Post(obs.range_m, obs.bearing_rad,
+                              max(obs.range_m - float(np.nanmin(ranges[span])), 0.0),
+                              top, bottom, top_cut, bottom_cut))
+    return out, posts
+
+
+def _nearest_held_bin(bearing_rad: float, bearings_rad: np.ndarray, blob_of: np.ndarray) -> int:
+    """The bin of a blob nearest ``bearing_rad`` (an observation's bearing lies within its own
+    blob's span: a chain point on a bin centre, a post's centre between its edges)."""
+    held = np.flatnonzero(blob_of >= 0)
+    return int(held[np.argmin(np.abs(bearings_rad[held] - bearing_rad))])
