@@ -128,3 +128,13 @@ def test_decimation_keeps_each_blocks_nearest_valid_pixel():
     intr = decimated_intrinsics(D455, 4)
     assert intr.width_px == 212 and intr.height_px == 120
     assert intr.hfov_rad == pytest.approx(D455.hfov_rad, rel=0.01)
+
+
+def test_a_frame_used_after_the_vehicle_moved_is_seen_from_where_it_is_now():
+    from companion.core.perception.depth_perception import MotionSince
+    frame = render([Cylinder(12.0, 0.0, 0.5)])
+    motion = MotionSince(forward_m=2.0, right_m=0.0, yaw_rad=math.radians(-10.0))
+    got = perceive(frame, CameraMount(), 0.0, 0.0, 5.0, PARAMS, motion)
+    post = got.posts[0]
+    assert post.range_m == pytest.approx(10.0, abs=0.4)
+    assert math.degrees(post.bearing_rad) == pytest.approx(10.0, abs=1.0)  # turned left: now right

@@ -81,14 +81,38 @@ class DepthPercept:
     binned: BinnedSurface = field(repr=False)
 
 
+@dataclass(frozen=True)
+class MotionSince:
+    """How the vehicle moved from a frame's capture to the time its observations are used
+    (the estimator's velocity and yaw rate over the delay): the displacement in the level frame
+    at capture (forward, right, down, metres) and the heading's change (radians, right
+    positive)."""
+    forward_m: float = 0.0
+    right_m: float = 0.0
+    down_m: float = 0.0
+    yaw_rad: float = 0.0
+
+
+def moved(xyz_m: np.ndarray, motion: MotionSince) -> np.ndarray:
+    """Level points at capture (n, 3) as seen from the vehicle after ``motion``."""
+    rel = xyz_m - np.array([motion.forward_m, motion.right_m, motion.down_m])
+    c, s = math.cos(motion.yaw_rad), math.sin(motion.yaw_rad)
+    return np.column_stack((c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1],
+                            rel[:, 2]))
+
+
 def perceive(frame: DepthFrame, mount: CameraMount, roll_rad: float, pitch_rad: float,
-             altitude_m: float | None, params: DepthPerceptionParams) -> DepthPercept:
+             altitude_m: float | None, params: DepthPerceptionParams,
+             motion: MotionSince | None = None) -> DepthPercept:
     """One depth frame -> observations, from the vehicle's roll and pitch at capture and its
-    altitude above the floor (None: unknown; the floor is then fitted)."""
+    altitude above the floor now (None: unknown; the floor is then fitted); ``motion``: how the
+    vehicle moved since the capture (the observations are then from where it is now)."""
     intr = frame.intrinsics
     small = decimate_nearest(frame.depth, params.decimation)
     pts = level_points(small, decimated_intrinsics(intr, params.decimation), mount, roll_rad,
                        pitch_rad)
+    if motion is not None:
+        pts = replace(pts, xyz_m=moved(pts.xyz_m, motion))
     floor, plane = _floor(pts.xyz_m, altitude_m, params)
     rest = pts.take(~floor)
     blobs = params.blob_params(intr.fx_px)
