@@ -9,6 +9,7 @@ Sources (companion/depthsrc/ reads them; each but the stub's an optional extra):
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Literal
 
@@ -63,19 +64,19 @@ class DepthPerceptionConfig:
     source: str | None = None
     decimation: int = 4
     bin_deg: float = 1.0
-    nearest_rank: int = 3
+    min_support: int = 8
     surface_band_m: float = 0.5
     floor: Literal["auto", "altitude", "plane"] = "auto"
     range_floor_sigma_m: float = 0.05
-    attitude_sigma_deg: float = 0.2     # simulate: ATTITUDE's roll and pitch error (a choice)
+    attitude_sigma_deg: float = 0.2     # ATTITUDE's roll and pitch error (a choice; simulate draws it)
 
     def __post_init__(self) -> None:
         if self.source is not None:
             parse_source(self.source)
         require(1 <= self.decimation <= 16, "decimation", self.decimation, "an integer in [1, 16]")
         require(0.0 < self.bin_deg <= 10.0, "bin_deg", self.bin_deg, "a bin in (0, 10] degrees")
-        require(1 <= self.nearest_rank <= 100, "nearest_rank", self.nearest_rank,
-                "an integer in [1, 100]")
+        require(1 <= self.min_support <= 1000, "min_support", self.min_support,
+                "an integer in [1, 1000]")
         require(0.0 <= self.surface_band_m <= 10.0, "surface_band_m", self.surface_band_m,
                 "a band in [0, 10] m")
         require(0.0 < self.range_floor_sigma_m <= 5.0, "range_floor_sigma_m",
@@ -86,6 +87,7 @@ class DepthPerceptionConfig:
     def params(self, ground_margin_m: float, baseline_m: float = 0.095,
                subpixel_px: float = 0.08, blob: BlobParams = BlobParams()) -> DepthPerceptionParams:
         """The core's parameters, with the floor's margin and the camera's stereo figures."""
-        return DepthPerceptionParams(self.decimation, self.bin_deg, self.nearest_rank,
+        return DepthPerceptionParams(self.decimation, self.bin_deg, self.min_support,
                                      self.surface_band_m, ground_margin_m, self.floor, baseline_m,
-                                     subpixel_px, self.range_floor_sigma_m, blob)
+                                     subpixel_px, self.range_floor_sigma_m,
+                                     math.radians(self.attitude_sigma_deg), blob)

@@ -29,8 +29,10 @@ from companion.core.perception.depth_obstacles import (BinnedSurface, Post, bin_
                                                        surface_observations)
 from companion.core.perception.depth_points import (decimate_nearest, decimated_intrinsics,
                                                     level_points)
-from companion.core.perception.floor import (FloorPlane, fit_floor, floor_by_altitude,
-                                             floor_by_plane)
+from companion.core.perception.floor import (FLOOR_SIGMAS, FloorPlane, fit_floor,
+                                             floor_by_altitude, floor_by_plane, height_sigma_m)
+
+FOOT_M = 0.3        # an obstacle's lowest point this near the floor's band stands on the floor
 
 
 @dataclass(frozen=True)
@@ -39,18 +41,19 @@ class DepthPerceptionParams:
     datasheet as third parties quote it; subpixel 0.08, Intel's engineers' suggestion)."""
     decimation: int = 4                     # a choice: 848x480 -> 212x120 (benchmark: p99 time)
     bin_deg: float = 1.0                    # a choice: about two decimated columns per bin
-    nearest_rank: int = 3
+    min_support: int = 8
     surface_band_m: float = 0.5
     ground_margin_m: float = 0.5
     floor: Literal["auto", "altitude", "plane"] = "auto"   # auto: altitude if known, else plane
     baseline_m: float = 0.095
     subpixel_px: float = 0.08
     range_floor_sigma_m: float = 0.05       # a choice: the nearest-of-a-bin's floor
+    attitude_sigma_rad: float = 0.0035      # ATTITUDE's roll / pitch error (0.2 deg, a choice)
     blob: BlobParams = field(default_factory=BlobParams)  # its range sigmas are replaced
 
     def __post_init__(self) -> None:
-        if self.decimation < 1 or self.nearest_rank < 1:
-            raise ValueError("decimation and nearest_rank must be >= 1")
+        if self.decimation < 1 or self.min_support < 1:
+            raise ValueError("decimation and min_support must be >= 1")
         if not 0.0 < self.bin_deg <= 10.0:
             raise ValueError(f"bin_deg must be in (0, 10], got {self.bin_deg}")
         if self.baseline_m <= 0.0 or self.subpixel_px <= 0.0 or self.ground_margin_m < 0.0:
@@ -113,24 +116,44 @@ def perceive(frame: DepthFrame, mount: CameraMount, roll_rad: float, pitch_rad: 
                        pitch_rad)
     if motion is not None:
         pts = replace(pts, xyz_m=moved(pts.xyz_m, motion))
-    floor, plane = _floor(pts.xyz_m, altitude_m, params)
-    rest = pts.take(~floor)
     blobs = params.blob_params(intr.fx_px)
+    sigma_h = height_sigma_m(pts.xyz_m, pts.depth_m, np.sqrt(blobs.range_var(pts.depth_m)),
+                             params.attitude_sigma_rad)
+    floor, plane = _floor(pts.xyz_m, sigma_h, altitude_m, params)
+    rest = pts.take(~floor)
     bins = max(2, int(round(math.degrees(intr.hfov_rad) / params.bin_deg)))
     binned = bin_surfaces(rest.xyz_m, rest.row, rest.rows, mount.yaw_rad, intr.hfov_rad, bins,
-                          blobs, params.nearest_rank, params.surface_band_m)
+                          blobs, params.min_support, params.surface_band_m)
     observations, posts = surface_observations(binned, blobs)
+    ground_down_m = altitude_m if plane is None else plane.c
+    if ground_down_m is not None:
+        observations = [_bottom_on_floor(o, ground_down_m, params.ground_margin_m, blobs,
+                                         params.attitude_sigma_rad) for o in observations]
     return DepthPercept(observations, posts, pts.count, int(floor.sum()), rest.count, pts.holes,
                         plane, binned)
 
 
-def _floor(xyz_m: np.ndarray, altitude_m: float | None,
+def _bottom_on_floor(obs: Observation, ground_down_m: float, margin_m: float, blobs: BlobParams,
+                     attitude_sigma_rad: float) -> Observation:
+    """An obstacle whose lowest point lies within the floor's removal band stands on the floor:
+    its bottom is the floor's (the band took its foot, not a gap under it)."""
+    if obs.bottom_down_m is None or not math.isfinite(ground_down_m):
+        return obs
+    sigma = height_sigma_m(np.array([[obs.range_m, 0.0, ground_down_m]]),
+                           np.array([obs.range_m]), np.sqrt(blobs.range_var(obs.range_m)),
+                           attitude_sigma_rad)[0]
+    if ground_down_m - obs.bottom_down_m <= margin_m + FLOOR_SIGMAS * sigma + FOOT_M:
+        return replace(obs, bottom_down_m=ground_down_m, bottom_clipped=False)
+    return obs
+
+
+def _floor(xyz_m: np.ndarray, sigma_h: np.ndarray, altitude_m: float | None,
            params: DepthPerceptionParams) -> tuple[np.ndarray, FloorPlane | None]:
     use_plane = params.floor == "plane" or (params.floor == "auto" and altitude_m is None)
     if use_plane:
         plane = fit_floor(xyz_m, params.ground_margin_m)
         if plane is not None:
-            return floor_by_plane(xyz_m, plane, params.ground_margin_m), plane
+            return floor_by_plane(xyz_m, plane, params.ground_margin_m, sigma_h), plane
     if altitude_m is not None and math.isfinite(altitude_m):
-        return floor_by_altitude(xyz_m, altitude_m, params.ground_margin_m), None
+        return floor_by_altitude(xyz_m, altitude_m, params.ground_margin_m, sigma_h), None
     return np.zeros(len(xyz_m), bool), None

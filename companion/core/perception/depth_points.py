@@ -32,11 +32,13 @@ class LevelPoints:
     """A frame's valid points. ``xyz_m`` (n, 3): local level frame (x forward along the heading,
     y right, z down, metres, from the vehicle's centre); ``row`` (n,): each point's row in the
     (decimated) image, for the view's edges; ``rows``: the image's row count; ``holes``: blocks
-    without a valid depth (or outside [min_depth, max_depth])."""
+    without a valid depth (or outside [min_depth, max_depth]); ``depth_m`` (n,): each point's
+    depth along the optical axis (its stereo error's argument)."""
     xyz_m: np.ndarray = field(repr=False)
     row: np.ndarray = field(repr=False)
     rows: int
     holes: int
+    depth_m: np.ndarray = field(repr=False)
 
     @property
     def count(self) -> int:
@@ -44,7 +46,8 @@ class LevelPoints:
 
     def take(self, keep: np.ndarray) -> "LevelPoints":
         """The points where ``keep`` (n,) bool is set."""
-        return LevelPoints(self.xyz_m[keep], self.row[keep], self.rows, self.holes)
+        return LevelPoints(self.xyz_m[keep], self.row[keep], self.rows, self.holes,
+                           self.depth_m[keep])
 
 
 def decimate_nearest(depth: np.ndarray, factor: int) -> np.ndarray:
@@ -97,4 +100,4 @@ def level_points(depth: np.ndarray, intr: DepthIntrinsics, mount: CameraMount,
     offset = turn @ np.asarray(mount.offset_frd_m, dtype=float)
     xyz = optical @ to_level.T + offset
     return LevelPoints(xyz, rows.astype(np.int32), int(depth.shape[0]),
-                       int(depth.size - zv.size))
+                       int(depth.size - zv.size), zv.astype(np.float64))

@@ -3,7 +3,8 @@
 Two ways, both counted by the caller:
 - by the altitude: a point whose height above the ground (the vehicle's altitude less its depth
   below the vehicle) is at most ``ground_margin_m`` is the floor (the rule of
-  core/perception/vertical_extent.py, applied per point);
+  core/perception/vertical_extent.py, applied per point), widened by three of the point's own
+  height errors (``height_sigma_m``: the stereo error along its ray, the level's error);
 - by a fitted plane, when the altitude is unsure or absent (a barometer's drift, a slope): the
   floor is the densest level of points below the vehicle (a histogram of their depths: a level
   floor piles its points into one bin, a wall or a trunk spreads them), refined by least squares
@@ -21,6 +22,7 @@ import numpy as np
 
 MIN_BELOW_M = 0.3            # a floor lies at least this far below the vehicle's centre
 HISTOGRAM_BIN_M = 0.2
+FLOOR_SIGMAS = 3.0           # a point within this many of its height errors of the floor is floor
 MIN_SPREAD_M = 0.5           # the plane's points spread at least this far both ways (sigma)
 
 
@@ -42,10 +44,11 @@ class FloorPlane:
         return math.atan(math.hypot(self.a, self.b))
 
 
-def floor_by_altitude(xyz_m: np.ndarray, altitude_m: float, ground_margin_m: float) -> np.ndarray:
-    """(n,) bool: the points at most ``ground_margin_m`` above the ground at ``altitude_m``
-    below the vehicle (a flat floor)."""
-    return altitude_m - xyz_m[:, 2] <= ground_margin_m
+def floor_by_altitude(xyz_m: np.ndarray, altitude_m: float, ground_margin_m: float,
+                      height_sigma_m: np.ndarray | float = 0.0) -> np.ndarray:
+    """(n,) bool: the points at most ``ground_margin_m`` (plus FLOOR_SIGMAS of each point's own
+    height error, ``height_sigma_m``) above the ground at ``altitude_m`` below the vehicle."""
+    return altitude_m - xyz_m[:, 2] <= ground_margin_m + FLOOR_SIGMAS * height_sigma_m
 
 
 def fit_floor(xyz_m: np.ndarray, ground_margin_m: float, min_points: int = 50,
@@ -77,6 +80,20 @@ def fit_floor(xyz_m: np.ndarray, ground_margin_m: float, min_points: int = 50,
     return plane if plane.tilt_rad <= max_tilt_rad else None
 
 
-def floor_by_plane(xyz_m: np.ndarray, plane: FloorPlane, ground_margin_m: float) -> np.ndarray:
-    """(n,) bool: the points at most ``ground_margin_m`` above the fitted floor."""
-    return plane.height_above_m(xyz_m) <= ground_margin_m
+def floor_by_plane(xyz_m: np.ndarray, plane: FloorPlane, ground_margin_m: float,
+                   height_sigma_m: np.ndarray | float = 0.0) -> np.ndarray:
+    """(n,) bool: the points at most ``ground_margin_m`` (plus FLOOR_SIGMAS of their height
+    error) above the fitted floor."""
+    return plane.height_above_m(xyz_m) <= ground_margin_m + FLOOR_SIGMAS * height_sigma_m
+
+
+def height_sigma_m(xyz_m: np.ndarray, depth_m: np.ndarray, sigma_z_m: np.ndarray,
+                   attitude_sigma_rad: float) -> np.ndarray:
+    """(n,): each point's height error. A depth error moves a point along its pixel's ray, whose
+    vertical part per metre of depth is the point's depth below the camera over its depth
+    (z_down / z); a level error (ATTITUDE's roll and pitch) tilts it by its horizontal
+    distance. A floor seen far and at a grazing angle is noisy in height: without this, its
+    noise above the margin is a phantom wall across the view's bottom."""
+    along = np.abs(xyz_m[:, 2]) / np.maximum(depth_m, 1e-6) * sigma_z_m
+    tilt = np.hypot(xyz_m[:, 0], xyz_m[:, 1]) * attitude_sigma_rad
+    return np.hypot(along, tilt)
