@@ -21,7 +21,7 @@ import sys
 from companion.errors import CompanionError
 
 # Each module has add_parser(subparsers) and run(args) -> int.
-COMMANDS = ("simulate", "campaign", "run", "demo", "replay", "view")
+COMMANDS = ("simulate", "campaign", "run", "demo", "replay", "view", "depth_record")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -2,12 +2,13 @@
 
     sitl-stub --scenario PATH [--tcp HOST:PORT|none] [--udp HOST:PORT] [--speedup N] [--seed S]
               [--truth-log PATH] [--drop-rate P] [--sysid N] [--signing-key FILE] [--streams-off]
-              [--lockstep] [--lockstep-timeout-s S] [--route]
+              [--lockstep] [--lockstep-timeout-s S] [--route] [--depth-tcp HOST:PORT]
     sitl-stub --camera-only --connect URL --scenario PATH [--seed S] [--sysid N]
               [--ekf-origin N,E] [--sectors]     # the camera alone, beside any autopilot
 
 Prints exactly one line to stdout once listening: `SITL_STUB READY tcp=HOST:PORT udp=HOST:PORT`
-(`-` for a disabled endpoint). Logs go to stderr. Exit 0 on SIGTERM/SIGINT, 2 on a bad scenario,
+(`-` for a disabled endpoint), followed by ` depth=HOST:PORT` with --depth-tcp (the depth
+cameras' frame stream of a sensor.form depth scenario, docs/depth.md). Logs go to stderr. Exit 0 on SIGTERM/SIGINT, 2 on a bad scenario,
 bad option or a port that cannot be bound.
 """
 from __future__ import annotations
@@ -65,6 +66,7 @@ class Options:
     lockstep: LockstepOptions | None = None
     route: bool = False
     boot_intervals: tuple[tuple[int, float], ...] = ()     # (message id, Hz) every link starts with
+    depth_tcp: Endpoint | None = None       # the depth stream's server (sensor.form depth)
 
 
 def _extent_record(world, obstacle_id: int) -> dict:
@@ -150,6 +152,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="with --lockstep: step on the companion's answer to the sample before the "
                         "latest, so both compute at once; its setpoints take effect one step "
                         "(one control period) later (docs/sitl_stub.md)")
+    p.add_argument("--depth-tcp", default="none", metavar="HOST:PORT",
+                   help="serve the depth cameras' frames (a sensor.form depth scenario) on this "
+                        "local TCP address, docs/depth.md (port 0: any; default none)")
     p.add_argument("--log-level", default="INFO", help="stderr log level (default INFO)")
     cam = p.add_argument_group("camera only: the stub's camera beside any autopilot")
     cam.add_argument("--camera-only", action="store_true",
@@ -185,7 +190,12 @@ def parse_options(argv: list[str] | None) -> Options:
         raise ValueError(f"--lockstep-timeout-s must be > 0, got {args.lockstep_timeout_s}")
     lockstep = LockstepOptions(timeout_s=args.lockstep_timeout_s,
                                overlap=args.lockstep_overlap) if args.lockstep else None
-    return Options(scenario=load_scenario(args.scenario), tcp=tcp, udp=udp, speedup=args.speedup,
+    scenario = load_scenario(args.scenario)
+    depth_tcp = parse_endpoint(args.depth_tcp, "depth-tcp")
+    if depth_tcp is not None and scenario.sensor.form != "depth":
+        raise ValueError(f"--depth-tcp: the scenario's camera is {scenario.sensor.form!r}; the "
+                         "depth stream needs sensor.form: depth")
+    return Options(scenario=scenario, tcp=tcp, udp=udp, speedup=args.speedup, depth_tcp=depth_tcp,
                    seed=args.seed, truth_log=Path(args.truth_log) if args.truth_log else None,
                    drop_rate=args.drop_rate, sysid=sysid, signing_key=key,
                    streams_off=args.streams_off, lockstep=lockstep, route=args.route,
@@ -240,9 +250,14 @@ class WallPacer:
 
 async def simulate(opts: Options, sim: Simulation, ap: Autopilot, cam: CameraComponent,
                    hub: LinkHub, inbox: collections.deque, truth_log: TruthLog | None,
-                   lockstep: Lockstep | None = None) -> None:
-    """Step physics on simulated time, handle messages, emit telemetry. Runs until cancelled."""
+                   lockstep: Lockstep | None = None, depth=None) -> None:
+    """Step physics on simulated time, handle messages, emit telemetry. Runs until cancelled.
+    ``depth``: (DepthRig, DepthServer): each step's depth frames go out before its MAVLink."""
     pacer = WallPacer(sim.dt_s, opts.speedup)
+
+    def send_depth() -> None:
+        if depth is not None:
+            depth[1].send(depth[0].frames_due(sim))
 
     def handle_inbox() -> None:
         t_s = sim.t_s
@@ -274,6 +289,7 @@ async def simulate(opts: Options, sim: Simulation, ap: Autopilot, cam: CameraCom
             items = lockstep.note_burst(odometry_last(items))
         hub.broadcast(items, exclude=frozenset(own))
 
+    send_depth()
     emit_step(sim.t_s, [])
     for msg_id, rate_hz in opts.boot_intervals:
         ap.streams.shared.set_message_interval(msg_id, 1e6 / rate_hz)
@@ -290,6 +306,7 @@ async def simulate(opts: Options, sim: Simulation, ap: Autopilot, cam: CameraCom
         handle_inbox()
         sim.step(ap.demand(sim.t_s), ap.armed, ap.climb_limits())
         t_s = sim.t_s
+        send_depth()
         emit_step(t_s, ap.after_step(t_s))
         if truth_log is not None:
             truth_log.write(t_s, sim, ap)
@@ -454,6 +471,18 @@ async def run_stub(opts: Options) -> None:
     for sig in (signal.SIGTERM, signal.SIGINT):
         loop.add_signal_handler(sig, stop.set)
     truth_log = TruthLog(opts.truth_log) if opts.truth_log else None
+    depth = None
+    ready_depth = ""
+    if opts.depth_tcp is not None:
+        from .depth_camera import DepthRig
+        from .depth_stream import DepthServer
+        depth = (DepthRig(sim, sim.rng_depth), DepthServer())
+        try:
+            host, port = await depth[1].start(opts.depth_tcp.host, opts.depth_tcp.port)
+        except OSError as exc:
+            raise LinkError(f"--depth-tcp {opts.depth_tcp.host}:{opts.depth_tcp.port}: "
+                            f"cannot listen: {exc.strerror or exc}") from None
+        ready_depth = f" depth={host}:{port}"
     try:
         async with open_links(hub):
             tcp = "%s:%d" % hub.tcp_address if hub.tcp_address else "-"
@@ -465,11 +494,11 @@ async def run_stub(opts: Options) -> None:
                      "off" if opts.streams_off else "default",
                      f"on (timeout {opts.lockstep.timeout_s:g} s"
                      f"{', overlapped' if opts.lockstep.overlap else ''})" if opts.lockstep else "off")
-            print(f"SITL_STUB READY tcp={tcp} udp={udp}", flush=True)
+            print(f"SITL_STUB READY tcp={tcp} udp={udp}{ready_depth}", flush=True)
             try:
                 async with asyncio.TaskGroup() as tg:
                     tg.create_task(simulate(opts, sim, ap, cam, hub, inbox, truth_log,
-                                            lockstep), name="simulate")
+                                            lockstep, depth), name="simulate")
                     tg.create_task(raise_on(stop), name="stop")
             except* ShutdownRequested:
                 log.info("clean shutdown at t=%.2f s (simulated)", sim.t_s)
@@ -480,6 +509,9 @@ async def run_stub(opts: Options) -> None:
     finally:
         if truth_log is not None:
             truth_log.close()
+        if depth is not None:
+            log.info("depth stream: %d frames sent, %d dropped", depth[1].sent, depth[1].dropped)
+            await depth[1].close()
 
 
 def parse_camera_options(args: argparse.Namespace):

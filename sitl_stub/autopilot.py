@@ -191,7 +191,8 @@ class Autopilot:
         if msg_id == streams.MSG_SYSTEM_TIME:
             return tm.system_time(t_s, self.start_unix_s)
         if msg_id == streams.MSG_ATTITUDE:
-            return tm.attitude(t_s, sim.reported_yaw_rad(), sim.reported_yaw_rate_rad_s())
+            return tm.attitude(t_s, sim.reported_yaw_rad(), sim.reported_yaw_rate_rad_s(),
+                               *sim.tilt_rad)
         if msg_id == streams.MSG_LOCAL_POSITION_NED:
             return tm.local_position_ned(t_s, sim.odometry, *sim.reported_position_ne_m(),
                                          sim.reported_velocity_ne_mps())

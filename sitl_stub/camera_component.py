@@ -33,7 +33,8 @@ class CameraComponent:
         if t_s + 1e-9 >= self._next_heartbeat_s:
             out.append((tm.COMP_CAMERA, tm.heartbeat_camera()))
             self._next_heartbeat_s = _advance(self._next_heartbeat_s, HEARTBEAT_INTERVAL_S, t_s)
-        if t_s + 1e-9 >= self._next_frame_s:
+        if t_s + 1e-9 >= self._next_frame_s and self.cfg.form != "depth":
+            # (form depth: the camera's frames go out on the depth stream, depth_stream.py)
             form = self.cfg.form
             detections = self.sim.observe() if form != "sectors" else []
             floor = self.sim.ground_points() if form != "sectors" else []

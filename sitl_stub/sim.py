@@ -11,7 +11,7 @@ import numpy as np
 
 from . import camera
 from .vehicle import (Demand, Limits, Odometry, TruthState, desired_climb_mps, initial_odometry,
-                      step_odometry, step_truth)
+                      step_odometry, step_truth, thrust_tilt_rad)
 from .world import Scenario, extents_of, obstacles_at, wrap_pi
 
 # Separate, independent random streams derived from the one --seed.
@@ -22,6 +22,7 @@ STREAM_POSITION = 4
 STREAM_YAW_BIAS = 5
 STREAM_OUTAGE = 6
 STREAM_HEIGHTS = 7            # the camera's z noise and floor returns (3D worlds only)
+STREAM_DEPTH = 8              # the depth camera's errors (sensor.form depth only)
 
 
 def make_rng(seed: int, stream: int) -> np.random.Generator:
@@ -101,6 +102,7 @@ class Simulation:
         self._rng_physics = make_rng(seed, STREAM_PHYSICS)
         self._rng_camera = make_rng(seed, STREAM_CAMERA)
         self._rng_heights = make_rng(seed, STREAM_HEIGHTS)
+        self.rng_depth = make_rng(seed, STREAM_DEPTH)
         self._extents = extents_of(scenario.world)
         noise = scenario.noise
         self.position_error = PositionError(noise.position_sigma_m or 0.0,
@@ -117,6 +119,10 @@ class Simulation:
         self._outage_vel_ne_mps = [(noise.outage_velocity_bias_mps * math.cos(a),
                                     noise.outage_velocity_bias_mps * math.sin(a)) for a in angles]
         self._outage_ne_m: list[float] | None = None
+        # the true tilt (roll, pitch) of the last step, from its acceleration; and the state
+        # before it (the depth camera interpolates its frames between the two)
+        self.tilt_rad = (0.0, 0.0)
+        self.previous_truth = self.truth
 
     def gps_fix(self) -> bool:
         """Whether the autopilot has a GPS fix now (a GPS, and no outage under way)."""
@@ -158,6 +164,9 @@ class Simulation:
         self.yaw_bias.step(self.dt_s)
         before = self.truth
         self.truth = step_truth(before, demand, self.limits, self.dt_s, ahrs_yaw, climb_mps)
+        self.previous_truth = before
+        self.tilt_rad = (0.0, 0.0) if demand.grounded else \
+            thrust_tilt_rad(before, self.truth, self.dt_s)
         if demand.grounded:
             speed_noise = heading_noise = 0.0
             vel_noise = (0.0, 0.0)

@@ -171,9 +171,11 @@ def system_time(t_s: float, start_unix_s: float) -> mavlink.MAVLink_message:
     return mavlink.MAVLink_system_time_message(int((start_unix_s + t_s) * 1e6), time_boot_ms(t_s))
 
 
-def attitude(t_s: float, yaw_rad: float, yaw_rate_rad_s: float) -> mavlink.MAVLink_message:
-    return mavlink.MAVLink_attitude_message(time_boot_ms(t_s), 0.0, 0.0, _angle_f32(yaw_rad),
-                                            0.0, 0.0, yaw_rate_rad_s)
+def attitude(t_s: float, yaw_rad: float, yaw_rate_rad_s: float, roll_rad: float = 0.0,
+             pitch_rad: float = 0.0) -> mavlink.MAVLink_message:
+    """roll, pitch: the true tilt (an AHRS's attitude is good to a fraction of a degree)."""
+    return mavlink.MAVLink_attitude_message(time_boot_ms(t_s), roll_rad, pitch_rad,
+                                            _angle_f32(yaw_rad), 0.0, 0.0, yaw_rate_rad_s)
 
 
 def local_position_ned(t_s: float, odom: Odometry, north_m: float, east_m: float,

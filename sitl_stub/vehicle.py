@@ -154,6 +154,24 @@ def yaw_change(demand: Demand, yaw_est_rad: float, limits: Limits, dt_s: float) 
     return min(max(dyaw, -max_dyaw), max_dyaw)
 
 
+GRAVITY_MPS2 = 9.80665
+
+
+def thrust_tilt_rad(before: TruthState, after: TruthState, dt_s: float) -> tuple[float, float]:
+    """(roll, pitch) of a multicopter that accelerated from ``before`` to ``after``: its thrust
+    carries the acceleration and holds it up, so the body's z axis lies along (-a_n, -a_e,
+    g + a_up) and, at the heading of ``after``, the nose goes down by atan(a_forward / g) and the
+    right side by asin(a_right / |thrust|)."""
+    a_n = (after.vel_north_mps - before.vel_north_mps) / dt_s
+    a_e = (after.vel_east_mps - before.vel_east_mps) / dt_s
+    a_up = (after.vel_up_mps - before.vel_up_mps) / dt_s
+    cos_y, sin_y = math.cos(after.yaw_rad), math.sin(after.yaw_rad)
+    forward, right = a_n * cos_y + a_e * sin_y, -a_n * sin_y + a_e * cos_y
+    lift = GRAVITY_MPS2 + a_up
+    return math.asin(right / math.sqrt(forward ** 2 + right ** 2 + lift ** 2)), \
+        math.atan2(-forward, lift)
+
+
 def initial_odometry(start: TruthState) -> Odometry:
     """Odometry starts at the true start pose and at rest."""
     return Odometry(north_m=start.north_m, east_m=start.east_m, yaw_rad=start.yaw_rad,

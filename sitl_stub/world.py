@@ -23,6 +23,7 @@ from typing import Any
 import yaml
 
 from . import shapes
+from .depth_config import DepthSpec, Mount, parse_cameras, parse_depth
 
 EARTH_RADIUS_M = 6378137.0  # WGS-84 equatorial radius, as ArduPilot's flat-earth conversion uses
 UINT16_MAX = 65535
@@ -185,13 +186,16 @@ class SensorConfig:
     vfov_rad: float = math.radians(58.0)
     sees_ground: bool = False          # returns from the floor (a pitched depth camera)
     ground_points_per_frame: int = 4   # ... this many a frame, where the view meets the floor
+    # form depth (depth_config.py): the rendered image and one mount per camera
+    depth: DepthSpec | None = None
+    cameras: tuple[Mount, ...] = ()
 
     def range_sigma_at(self, range_m: float) -> float:
         """Standard deviation of a range reported at true range ``range_m``, metres."""
         return self.range_sigma_m + self.range_sigma_k_per_m * range_m * range_m
 
 
-SENSOR_FORMS = ("centres", "sectors", "both")
+SENSOR_FORMS = ("centres", "sectors", "both", "depth")
 
 
 @dataclass(frozen=True)
@@ -507,6 +511,11 @@ def _outages(r: _Reader) -> tuple[tuple[float, float], ...]:
 
 
 def _parse_sensor(r: _Reader) -> SensorConfig:
+    form = _form(r)
+    depth = parse_depth(r, _Reader) if form == "depth" else None
+    if depth is not None and r.number("rate_hz", minimum=0, strict_min=True) != depth.rate_hz:
+        raise r.error(f"expected the depth camera's rate (sensor.depth.rate_hz = "
+                      f"{depth.rate_hz:g}), got {r.data['rate_hz']!r}", "rate_hz")
     cfg = SensorConfig(
         fov_rad=math.radians(r.number("fov_deg", minimum=0, strict_min=True, maximum=360)),
         max_range_m=r.number("max_range_m", minimum=0.2, strict_min=True),
@@ -517,7 +526,8 @@ def _parse_sensor(r: _Reader) -> SensorConfig:
         miss_probability=r.number("miss_probability", 0.0, minimum=0, maximum=1),
         false_alarm_rate_hz=r.number("false_alarm_rate_hz", 0.0, minimum=0),
         sector_message=r.boolean("sector_message", False),
-        form=_form(r),
+        form=form,
+        depth=depth, cameras=parse_cameras(r, _Reader, form),
         sector_count=r.integer("sector_count", minimum=2, maximum=72)
         if "sector_count" in r.data else 72,
         range_sigma_k_per_m=r.number("range_sigma_k_per_m", 0.0, minimum=0, maximum=1.0),

@@ -9,6 +9,7 @@ from companion.config.scenario import load_scenario
 from companion.sim.forest_worlds import FOREST_SPECS, world_figures
 from companion.sim.worlds import WORLD_KINDS, random_world
 from companion.sim.batch import available_cores, fly_runs
+from companion.sim.depth_camera import depth_sensor_record
 from companion.tools.report import print_summary, write_json
 from companion.sim.simulation import aggregate, with_position_fusion, with_speed, with_vertical
 
@@ -81,6 +82,8 @@ def run(args: argparse.Namespace) -> int:
     if scenario.avoidance.safety_distance_rest_m is not None:    # d set by the cruise speed
         agg["safety_distance_m"] = scenario.safety_distance_m
     agg["scenario"] = f"random-{args.random_worlds}" if args.random_worlds else scenario.name
+    if scenario.sensor.form == "depth":            # the rendered camera: form, intrinsics, mounts
+        agg["sensor"] = depth_sensor_record(scenario.sensor)
     if args.random_worlds in FOREST_SPECS:         # the drawn forests' density and spacing
         agg["forest"] = world_figures(worlds, args.random_worlds)
     report = {"aggregate": agg, "runs": [o.summary for o in outcomes]}

@@ -1,7 +1,7 @@
 """``perception.depth``: how the companion turns depth pixels into obstacles, and where its frames
 come from (``source``, also ``companion run --depth SOURCE``).
 
-Sources (companion/depthsrc/ reads them; each but the stub's an optional extra):
+Sources (companion/depth/ reads them; each but the stub's needs the optional extra ``depth``):
 - ``stub:HOST:PORT``       the SITL stub's depth stream (docs/sitl_stub.md);
 - ``rosbag:PATH:TOPIC``    a ROS 1 or ROS 2 bag's sensor_msgs/Image (16UC1 mm or 32FC1 m);
 - ``realsense-bag:FILE``   a RealSense recording played through pyrealsense2, not in real time;

@@ -11,6 +11,7 @@ from typing import Literal
 import numpy as np
 
 from companion.config.checks import PLAUSIBLE_SPEED_MPS, require_positive, require_sigma, require_stereo_k
+from companion.config.depth import CameraMountConfig, DepthConfig, check_cameras
 from companion.config.loader import FieldError, require
 from companion.core import shapes
 
@@ -265,8 +266,9 @@ class SensorConfig:
     false_alarm_rate_hz: float = 0.0
     sector_message: bool = False          # read by the stub only
     # companion simulate's camera: obstacle centres, depth sectors (nearest surface per bin,
-    # sector_count bins over the view, turned into landmarks by core/perception/blobs.py), or both
-    form: Literal["centres", "sectors", "both"] = "centres"
+    # sector_count bins over the view, turned into landmarks by core/perception/blobs.py), both,
+    # or depth: rendered depth images (sensor.depth, one per mount of sensor.cameras)
+    form: Literal["centres", "sectors", "both", "depth"] = "centres"
     sector_count: int = 72
     # A stereo camera's range error grows with the square of the range: sigma_r(r) =
     # range_sigma_m + range_sigma_k_per_m * r^2, k = disparity sigma / (focal px * baseline)
@@ -277,8 +279,19 @@ class SensorConfig:
     vfov_deg: float = 58.0
     sees_ground: bool = False            # returns from the floor within range (a pitched camera)
     ground_points_per_frame: int = 4     # ... this many per frame, where the view meets the floor
+    # form depth: the image (config/depth.py: a D455 by default) and the cameras' mounts (none
+    # given: one camera at the vehicle's centre, level, looking forward)
+    depth: DepthConfig = field(default_factory=DepthConfig)
+    cameras: tuple[CameraMountConfig, ...] = ()
 
     def __post_init__(self) -> None:
+        check_cameras(self.form, self.cameras)
+        if self.form != "depth" and self.depth != DepthConfig():
+            raise FieldError("depth", f"the rendered image's settings are the depth form's "
+                             f"(sensor.form: depth), got form {self.form!r}")
+        if self.form == "depth":
+            require(self.rate_hz == self.depth.rate_hz, "rate_hz", self.rate_hz,
+                    f"the depth camera's rate (sensor.depth.rate_hz = {self.depth.rate_hz:g})")
         require(0.0 < self.fov_deg <= 360.0, "fov_deg", self.fov_deg, "a field of view in (0, 360]")
         require(0.0 < self.vfov_deg < 180.0, "vfov_deg", self.vfov_deg,
                 "a vertical field of view in (0, 180)")
@@ -307,6 +320,11 @@ class SensorConfig:
     @property
     def bearing_sigma_rad(self) -> float:
         return math.radians(self.bearing_sigma_deg)
+
+    def camera_mounts(self) -> tuple:
+        """form depth: each camera's CameraMount (core/perception/depth_frame.py), camera id =
+        index; one level forward camera at the centre when sensor.cameras is not given."""
+        return tuple(c.mount() for c in (self.cameras or (CameraMountConfig(),)))
 
     def range_sigma_at(self, range_m):
         """The truth camera's range sigma at ``range_m`` (a float or an array), metres."""

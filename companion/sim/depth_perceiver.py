@@ -28,7 +28,6 @@ class SimDepthPerception:
 
     def __init__(self, scenario: Scenario, seed: int) -> None:
         sensor, perception = scenario.sensor, scenario.perception
-        self.intrinsics = sensor.depth.intrinsics()
         self.mounts = sensor.camera_mounts()
         self.params = perception.depth.params(perception.ground_margin_m, sensor.depth.baseline_m,
                                               sensor.depth.subpixel)
@@ -58,8 +57,8 @@ class SimDepthPerception:
         return [out[k] for k in sorted(out)]
 
     def summary(self) -> dict:
-        return {"intrinsics": _intrinsics(self.intrinsics),
-                "decimation": self.params.decimation, **dict(self.counts)}
+        """The run's perception counts (the camera itself is the aggregate's ``sensor``)."""
+        return {"decimation": self.params.decimation, **dict(self.counts)}
 
 
 def _motion(vel_ne_mps, yaw_rad: float, yaw_rate_rad_s: float, delay_s: float) -> MotionSince:
@@ -71,8 +70,3 @@ def _motion(vel_ne_mps, yaw_rad: float, yaw_rate_rad_s: float, delay_s: float) -
     north, east = float(vel_ne_mps[0]) * delay_s, float(vel_ne_mps[1]) * delay_s
     return MotionSince(c * north + s * east, -s * north + c * east, 0.0, turn)
 
-
-def _intrinsics(intr) -> dict:
-    return {"width_px": intr.width_px, "height_px": intr.height_px, "fx_px": intr.fx_px,
-            "fy_px": intr.fy_px, "cx_px": intr.cx_px, "cy_px": intr.cy_px,
-            "min_depth_m": intr.min_depth_m, "max_depth_m": intr.max_depth_m}

@@ -31,6 +31,7 @@ from companion.core.estimation.position_reset import PositionResetWatch, Unaided
 # (the paper's "error less than 2 m").
 ARRIVAL_ALLOWANCE_M = 2.0
 VERTICAL_STREAM = 0xA17         # the truth's heights' own random source: [seed, this]
+DEPTH_STREAM = 0xDE9            # the depth cameras' noise (sensor.form depth): [seed, this]
 
 
 @dataclass
@@ -163,7 +164,8 @@ def with_position_fusion(scenario: Scenario, position_fusion: str | None) -> Sce
 
 def camera_frame(truth: TruthWorld, blobs: BlobParams) -> list:
     """What the companion sees of one frame in the scenario's sensor form: centres, the landmarks
-    of the sectors' blobs (core/perception/blobs.py, the companion's side of a depth camera), or both."""
+    of the sectors' blobs (core/perception/blobs.py, the companion's side of a depth camera), or both.
+    The depth form's frames go through ``_observe_depth`` instead."""
     form = truth.scenario.sensor.form
     frame = truth.observe() if form in ("centres", "both") else []
     if form in ("sectors", "both"):
@@ -197,10 +199,13 @@ def with_speed(scenario: Scenario, speed_mps: float | None) -> Scenario:
     return dataclasses.replace(scenario, vehicle=vehicle)
 
 
-def run_once(scenario: Scenario, seed: int, strategy: str | None = None) -> RunOutcome:
-    """Fly one seeded run of the scenario in-process."""
+def run_once(scenario: Scenario, seed: int, strategy: str | None = None,
+             depth_sink=None) -> RunOutcome:
+    """Fly one seeded run of the scenario in-process. ``depth_sink(frames)``: sees every depth
+    frame rendered (sensor.form depth)."""
     truth = TruthWorld(scenario, np.random.default_rng(seed),
-                       np.random.default_rng([seed, VERTICAL_STREAM]))
+                       np.random.default_rng([seed, VERTICAL_STREAM]),
+                       np.random.default_rng([seed, DEPTH_STREAM]), depth_sink)
     nav = make_navigator(scenario, strategy)
     three_d = is_3d(scenario)
     path_3d_m = climb_m = 0.0

@@ -61,8 +61,17 @@ class TruthWorld:
     """The vehicle's true pose and speed, the obstacles' true positions, and the sensors."""
 
     def __init__(self, scenario: Scenario, rng: np.random.Generator,
-                 vertical_rng: np.random.Generator | None = None) -> None:
+                 vertical_rng: np.random.Generator | None = None,
+                 depth_rng: np.random.Generator | None = None, depth_sink=None) -> None:
         self.scenario = scenario
+        # sensor.form depth: the rendered cameras (sim/depth_camera.py), their own random source;
+        # depth_sink(frames) sees every frame (companion depth-record)
+        self.depth_camera = None
+        if scenario.sensor.form == "depth":
+            from companion.sim.depth_camera import SimDepthCamera
+            self.depth_camera = SimDepthCamera(
+                scenario, depth_rng if depth_rng is not None else np.random.default_rng(0))
+        self.depth_sink = depth_sink
         self.rng = rng
         # heights have their own random source (the points' z, the altitude's noise, the floor's
         # returns), so a world without heights keeps its random stream as before
@@ -274,6 +283,14 @@ class TruthWorld:
                 self.seen_ids.add(oid)
             ranges = np.minimum(ranges, hits)
         return ranges
+
+    def capture_depth(self) -> list:
+        """sensor.form depth: the DepthFrames due since the last call (every camera, at the
+        camera's own rate, from the true pose with the tilt), handed to depth_sink too."""
+        frames = self.depth_camera.frames_due(self)
+        if self.depth_sink is not None and frames:
+            self.depth_sink(frames)
+        return frames
 
     def clearance(self) -> "Clearance":
         """How close the vehicle is now to every obstacle, wall and building (see Clearance)."""

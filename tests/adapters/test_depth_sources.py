@@ -1,4 +1,4 @@
-"""Depth sources (companion/depthsrc/): ROS bags (16UC1 mm, 32FC1 m with NaN, CameraInfo beside
+"""Depth sources (companion/depth/): ROS bags (16UC1 mm, 32FC1 m with NaN, CameraInfo beside
 the image), RealSense recordings played through the SDK, and the clear errors: no camera, a
 recording without a depth stream, a wrong encoding, a missing topic. The recordings are written
 here, by rosbags' writer and the SDK's own software device and recorder."""
@@ -9,8 +9,8 @@ import pytest
 
 from companion.config.depth_perception import parse_source
 from companion.config.loader import FieldError
-from companion.depthsrc.frames import DepthSourceError, image_to_z16
-from companion.depthsrc.open import open_depth_source
+from companion.depth.frames import DepthSourceError, image_to_z16
+from companion.depth.open import open_depth_source
 
 W, H = 64, 48
 

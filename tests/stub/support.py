@@ -31,6 +31,7 @@ class Stub:
     tcp_port: int | None
     udp_port: int | None
     stderr_path: Path
+    depth_port: int | None = None      # --depth-tcp's (the READY line's depth=)
 
     def stop(self) -> int:
         """SIGTERM and wait (bounded) for the exit code."""
@@ -66,7 +67,7 @@ def start_stub(tmp_path: Path, *args: str, scenario: Path = PAPER) -> Stub:
         raise AssertionError(f"no READY line, got {line!r}; stderr:\n{err.read_text()}")
     fields = dict(part.split("=", 1) for part in line.split()[2:])
     return Stub(proc=proc, tcp_port=_port(fields["tcp"]), udp_port=_port(fields["udp"]),
-                stderr_path=err)
+                stderr_path=err, depth_port=_port(fields.get("depth", "-")))
 
 
 def _port(text: str) -> int | None:

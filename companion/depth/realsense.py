@@ -1,5 +1,5 @@
 """``realsense-bag:FILE`` and ``realsense[:SERIAL]``: depth frames through Intel's SDK
-(pyrealsense2, optional extra ``realsense``; its wheel needs libusb-1.0, Debian's libusb-1.0-0).
+(pyrealsense2, optional extra ``depth``; its wheel needs libusb-1.0, Debian's libusb-1.0-0).
 
 A recording is played back not in real time (``set_real_time(False)``: every frame, as fast as it
 is read); its end is the end of the source. A live camera streams depth at the configured mode
@@ -18,7 +18,7 @@ from typing import Iterator
 import numpy as np
 
 from companion.core.perception.depth_frame import DepthFrame, DepthIntrinsics
-from companion.depthsrc.frames import DepthSourceError, SourcedFrame, missing_extra
+from companion.depth.frames import DepthSourceError, SourcedFrame, missing_extra
 
 WAIT_MS = 1000
 
@@ -40,7 +40,7 @@ def _sdk(source: str):
     try:
         import pyrealsense2 as rs
     except ImportError:
-        raise missing_extra("pyrealsense2", "realsense", source) from None
+        raise missing_extra("pyrealsense2", source) from None
     return rs
 
 

@@ -28,10 +28,10 @@ class SourcedFrame:
     host_time_s: float | None = None      # None: the frame's time_boot_ms is the vehicle's
 
 
-def missing_extra(module: str, extra: str, source: str) -> DepthSourceError:
+def missing_extra(module: str, source: str) -> DepthSourceError:
     return DepthSourceError(f"depth source {source}: the Python module {module!r} is not "
                             f"installed; install the optional extra: pip install "
-                            f"'companion-avoid[{extra}]'")
+                            f"'companion-avoid[depth]'")
 
 
 def image_to_z16(data: bytes | np.ndarray, encoding: str, width: int, height: int, step: int,

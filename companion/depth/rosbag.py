@@ -1,5 +1,5 @@
 """``rosbag:PATH:TOPIC``: a ROS 1 (.bag) or ROS 2 (directory, .db3 or .mcap) bag's depth images,
-read with the ``rosbags`` library (optional extra ``rosbag``). The topic must carry
+read with the ``rosbags`` library (optional extra ``depth``). The topic must carry
 sensor_msgs/Image in 16UC1 (millimetres) or 32FC1 (metres), 0 or NaN = no data (REP 118); its
 intrinsics come from the bag's CameraInfo beside it (``<namespace>/camera_info``, else the only
 CameraInfo in the bag), or from ``intrinsics`` given by the caller. Frames are stamped with the
@@ -10,7 +10,7 @@ from pathlib import Path
 from typing import Iterator
 
 from companion.core.perception.depth_frame import DepthFrame, DepthIntrinsics
-from companion.depthsrc.frames import (DepthSourceError, SourcedFrame, image_to_z16,
+from companion.depth.frames import (DepthSourceError, SourcedFrame, image_to_z16,
                                        intrinsics_from_k, missing_extra)
 
 IMAGE = "sensor_msgs/msg/Image"
@@ -25,7 +25,7 @@ def read_rosbag(path: str, topic: str, intrinsics: DepthIntrinsics | None = None
     try:
         from rosbags.highlevel import AnyReader
     except ImportError:
-        raise missing_extra("rosbags", "rosbag", source) from None
+        raise missing_extra("rosbags", source) from None
     if not Path(path).exists():
         raise DepthSourceError(f"depth source {source}: no bag at {path}")
     with AnyReader([Path(path)]) as reader:
