@@ -4,11 +4,11 @@ The points are binned by bearing from the heading (``bins`` over the camera's ho
 Per bin, the nearest surface: the nearest point with ``min_support`` points of the bin within a
 depth band behind it (``surface_band_m`` plus three stereo sigmas; a choice, 8 decimated pixels:
 a stray patch of noise, a few pixels of one false match, does not pull a bin in, while a post of
-a few metres' height fills dozens at 20 m), placed at the median of the points around it, and its heights: the highest and lowest of the bin's points within a
-depth band about that surface (half ``surface_band_m`` plus three stereo sigmas either side), with whether any of
-them lies on the image's top or bottom row (the surface goes on out of the view: that bound is
-not its own). A hole in the image is a missing point, nothing more: the bin's other points speak
-for it.
+a few metres' height fills dozens at 20 m), placed at the median of the points about it, and its
+heights: the highest and lowest of the bin's points within a band about that surface (half
+``surface_band_m`` plus three stereo sigmas either side), with whether any of them lies on the
+image's top or bottom row (the surface goes on out of the view: that bound is not its own). A
+hole in the image is a missing point, nothing more: the bin's other points speak for it.
 
 The bins are then a depth camera's sectors, and core/perception/blobs.py turns them into
 observations as it does for the ``sectors`` form: compact blobs (posts) as centres, wider ones
