@@ -105,11 +105,11 @@ def cases() -> None:
     pose = TruePose(0.0, 0.0, 5.0)
     none = StereoErrors.none()
     rng = np.random.default_rng(0)
-    wall = np.array([[8.0, -3.0], [8.2, -3.0], [8.2, 3.0], [8.0, 3.0]])
+    wall = np.array([[8.0, -6.0], [8.2, -6.0], [8.2, 6.0], [8.0, 6.0]])
     deck = np.array([[8.0, -4.0], [12.0, -4.0], [12.0, 4.0], [8.0, 4.0]])
     empty = np.zeros((0, 2)), np.zeros(0), np.zeros(0), np.zeros(0)
     scenes = {
-        "low wall under the band (1.5 m high, 8 m ahead, camera at 5 m)":
+        "low wall under the band (1.5 m high, 12 m wide, 8 m ahead, camera at 5 m)":
             DepthScene(*empty, (Prism(wall, 0.0, 1.5),)),
         "overhang above the band (deck 6-9 m up, 8 m ahead, camera at 5 m)":
             DepthScene(*empty, (Prism(deck, 6.0, 9.0),)),
@@ -119,11 +119,13 @@ def cases() -> None:
     }
     for name, scene in scenes.items():
         pixels = render(renderer, scene, pose, none, rng)
+        whole = d4xx_distances(pixels, intr, intr.height_px // 2)
         if "hole" in name:
             row, col = intr.height_px // 2, intr.width_px // 2
             pixels = pixels.copy()
             pixels[row, col] = 0
         d4 = d4xx_distances(pixels, intr, intr.height_px // 2)
+        blanked = np.flatnonzero(np.isfinite(whole) & ~np.isfinite(d4))
         got = perceive(DepthFrame(0, 0, 0, intr, pixels), CameraMount(), 0.0, 0.0, 5.0, params)
         seen = [f"{o.range_m:.1f} m at {math.degrees(o.bearing_rad):+.0f} deg, "
                 f"{5.0 - o.top_down_m:.1f} to {5.0 - o.bottom_down_m:.1f} m up"
@@ -131,7 +133,9 @@ def cases() -> None:
         d4_seen = np.flatnonzero(np.isfinite(d4))
         print(f"{name}:")
         print(f"  d4xx: {len(d4_seen)} of 72 bins hold something"
-              + (f", nearest {np.nanmin(d4):.2f} m" if len(d4_seen) else ""))
+              + (f", nearest {np.nanmin(d4):.2f} m" if len(d4_seen) else "")
+              + (f"; the hole blanked bin(s) {blanked.tolist()} of the "
+                 f"{int(np.isfinite(whole).sum())} that saw the post" if len(blanked) else ""))
         print(f"  perceive: {len(got.observations)} observations"
               + (f"; nearest {seen[int(np.argmin([o.range_m for o in got.observations]))]}"
                  if seen else ""))
