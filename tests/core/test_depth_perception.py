@@ -139,3 +139,13 @@ def test_a_frame_used_after_the_vehicle_moved_is_seen_from_where_it_is_now():
     post = got.posts[0]
     assert post.range_m == pytest.approx(10.0, abs=0.4)
     assert math.degrees(post.bearing_rad) == pytest.approx(10.0, abs=1.0)  # turned left: now right
+
+
+def test_a_stray_patch_above_a_low_wall_does_not_lift_its_top():
+    frame = render([Panel(8.0, -3.0, 8.0, 3.0, top_m=1.5)])
+    pixels = frame.depth.copy()
+    pixels[196:204, 416:432] = 8000          # a false match at the wall's range, 5 m up
+    got = perceive(DepthFrame(2, 0, 0, D455, pixels), CameraMount(), 0.0, 0.0, 5.0, PARAMS)
+    assert got.observations
+    for obs in got.observations:
+        assert 5.0 - obs.top_down_m == pytest.approx(1.5, abs=0.1)

@@ -6,8 +6,8 @@ depth band behind it (``surface_band_m`` plus three stereo sigmas; a choice, 8 d
 a stray patch of noise, a few pixels of one false match, does not pull a bin in, while a post of
 a few metres' height fills dozens at 20 m), placed at the median of the points about it, and its
 heights: the highest and lowest of the bin's points within a band about that surface (half
-``surface_band_m`` plus three stereo sigmas either side), with whether any of them lies on the
-image's top or bottom row (the surface goes on out of the view: that bound is not its own). A
+``surface_band_m`` plus three stereo sigmas either side; the largest run of them without a
+vertical gap above ``max_gap_m``), with whether any of them lies on the image's top or bottom row (the surface goes on out of the view: that bound is not its own). A
 hole in the image is a missing point, nothing more: the bin's other points speak for it.
 
 The bins are then a depth camera's sectors, and core/perception/blobs.py turns them into
@@ -61,7 +61,7 @@ class Post:
 
 def bin_surfaces(xyz_m: np.ndarray, row: np.ndarray, rows: int, centre_rad: float,
                  fov_rad: float, bins: int, params: BlobParams, min_support: int = 8,
-                 surface_band_m: float = 0.5) -> BinnedSurface:
+                 surface_band_m: float = 0.5, max_gap_m: float = 1.0) -> BinnedSurface:
     """Level points (n, 3) with their image rows (n,) -> the nearest supported surface per
     bearing bin over ``fov_rad`` centred on ``centre_rad`` (the camera's yaw on the body)."""
     increment = fov_rad / bins
@@ -108,16 +108,38 @@ def bin_surfaces(xyz_m: np.ndarray, row: np.ndarray, rows: int, centre_rad: floa
     near = ranges[index]
     reach = 0.5 * surface_band_m + 3.0 * np.sqrt(params.range_var(near))
     surface = np.abs(horiz - near) <= reach                                  # NaN: False
-    high = np.minimum.reduceat(np.where(surface, z, np.inf), at)
-    low = np.maximum.reduceat(np.where(surface, z, -np.inf), at)
-    top[nonempty] = np.where(np.isfinite(high), high, np.nan)
-    bottom[nonempty] = np.where(np.isfinite(low), low, np.nan)
-    top_cut[nonempty] = np.maximum.reduceat(surface & (row == 0), at)
-    bottom_cut[nonempty] = np.maximum.reduceat(surface & (row == rows - 1), at)
+    _heights(index[surface], z[surface], row[surface], rows, max_gap_m, top, bottom, top_cut,
+             bottom_cut)
     empty = np.isnan(ranges)
     top[empty] = bottom[empty] = np.nan
     top_cut[empty] = bottom_cut[empty] = False
     return BinnedSurface(ranges, bearings, increment, top, bottom, top_cut, bottom_cut, counts)
+
+
+def _heights(index: np.ndarray, z: np.ndarray, row: np.ndarray, rows: int, max_gap_m: float,
+             top: np.ndarray, bottom: np.ndarray, top_cut: np.ndarray,
+             bottom_cut: np.ndarray) -> None:
+    """Each bin's surface points (bin ``index``, depth below ``z``, image ``row``, (m,) each)
+    split where two heights next to each other lie more than ``max_gap_m`` apart; the largest
+    run is the surface: its highest and lowest point and whether it reaches the image's top or
+    bottom row fill the bins' arrays in place. A stray point above a wall's top (a false match
+    of a far floor at the wall's range) is a run of its own: it does not lift the wall."""
+    if len(z) == 0:
+        return
+    order = np.lexsort((z, index))
+    index, z, row = index[order], z[order], row[order]
+    cut = np.concatenate(([True], (np.diff(index) != 0) | (np.diff(z) > max_gap_m)))
+    starts = np.flatnonzero(cut)
+    sizes = np.diff(np.append(starts, len(z)))
+    run_bin = index[starts]
+    best = np.lexsort((-sizes, run_bin))                 # per bin, its largest run first
+    first = np.concatenate(([True], np.diff(run_bin[best]) != 0))
+    chosen = best[first]
+    lo, hi = starts[chosen], starts[chosen] + sizes[chosen] - 1
+    bins = run_bin[chosen]
+    top[bins], bottom[bins] = z[lo], z[hi]
+    top_cut[bins] = np.maximum.reduceat(row == 0, starts)[chosen]
+    bottom_cut[bins] = np.maximum.reduceat(row == rows - 1, starts)[chosen]
 
 
 def surface_observations(binned: BinnedSurface, params: BlobParams
