@@ -126,7 +126,7 @@ def _heights(index: np.ndarray, z: np.ndarray, row: np.ndarray, rows: int, max_g
     of a far floor at the wall's range) is a run of its own: it does not lift the wall."""
     if len(z) == 0:
         return
-    order = np.lexsort((z, index))
+    order = np.argsort(index * KEY_STRIDE_M + z, kind="stable")    # by bin, then height
     index, z, row = index[order], z[order], row[order]
     cut = np.concatenate(([True], (np.diff(index) != 0) | (np.diff(z) > max_gap_m)))
     starts = np.flatnonzero(cut)

@@ -139,9 +139,9 @@ def _bottom_on_floor(obs: Observation, ground_down_m: float, margin_m: float, bl
     its bottom is the floor's (the band took its foot, not a gap under it)."""
     if obs.bottom_down_m is None or not math.isfinite(ground_down_m):
         return obs
-    sigma = height_sigma_m(np.array([[obs.range_m, 0.0, ground_down_m]]),
-                           np.array([obs.range_m]), np.sqrt(blobs.range_var(obs.range_m)),
-                           attitude_sigma_rad)[0]
+    # height_sigma_m of the floor's point at the obstacle's range, written out for one point
+    along = abs(ground_down_m) / max(obs.range_m, 1e-6) * math.sqrt(blobs.range_var(obs.range_m))
+    sigma = math.hypot(along, abs(obs.range_m) * attitude_sigma_rad)
     if ground_down_m - obs.bottom_down_m <= margin_m + FLOOR_SIGMAS * sigma + FOOT_M:
         return replace(obs, bottom_down_m=ground_down_m, bottom_clipped=False)
     return obs

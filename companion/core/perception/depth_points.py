@@ -61,7 +61,7 @@ def decimate_nearest(depth: np.ndarray, factor: int) -> np.ndarray:
     h, w = depth.shape[0] // factor, depth.shape[1] // factor
     blocks = depth[:h * factor, :w * factor]
     far = np.where(blocks == NO_DATA, _FAR, blocks)
-    near = far.reshape(h, factor, w, factor).min(axis=(1, 3))
+    near = far.reshape(h, factor, w, factor).min(axis=3).min(axis=1)   # (faster than both at once)
     return np.where(near == _FAR, NO_DATA, near)
 
 
