@@ -149,3 +149,25 @@ def test_a_stray_patch_above_a_low_wall_does_not_lift_its_top():
     assert got.observations
     for obs in got.observations:
         assert 5.0 - obs.top_down_m == pytest.approx(1.5, abs=0.1)
+
+
+def test_the_bins_span_what_the_mount_lets_the_camera_see():
+    from companion.core.perception.depth_points import view_span
+    centre, span = view_span(D455, CameraMount())
+    assert centre == pytest.approx(0.0, abs=1e-9)
+    assert span == pytest.approx(D455.hfov_rad, rel=0.01)
+    _, pitched = view_span(D455, LOOK_DOWN)
+    assert pitched > span                           # the lower corners reach wider
+    on_side = CameraMount(roll_rad=math.radians(90.0))
+    assert view_span(D455, on_side)[1] == pytest.approx(D455.vfov_rad, rel=0.02)
+    assert view_span(D455, CameraMount(pitch_rad=math.radians(-90.0)))[1] == pytest.approx(
+        2.0 * math.pi)
+
+
+def test_a_camera_on_its_side_sees_a_post_on_the_right_on_the_right():
+    on_side = CameraMount(roll_rad=math.radians(90.0))
+    got = perceive(render([Cylinder(10.0, 3.0, 0.4)], mount=on_side), on_side, 0.0, 0.0, 5.0,
+                   PARAMS)
+    assert len(got.posts) == 1
+    assert math.degrees(got.posts[0].bearing_rad) == pytest.approx(bearing_deg(10.0, 3.0),
+                                                                   abs=1.0)

@@ -28,7 +28,7 @@ from companion.core.perception.depth_frame import CameraMount, DepthFrame
 from companion.core.perception.depth_obstacles import (BinnedSurface, Post, bin_surfaces,
                                                        surface_observations)
 from companion.core.perception.depth_points import (decimate_nearest, decimated_intrinsics,
-                                                    level_points)
+                                                    level_points, view_span)
 from companion.core.perception.floor import (FLOOR_SIGMAS, FloorPlane, fit_floor,
                                              floor_by_altitude, floor_by_plane, height_sigma_m)
 
@@ -121,8 +121,9 @@ def perceive(frame: DepthFrame, mount: CameraMount, roll_rad: float, pitch_rad: 
                              params.attitude_sigma_rad)
     floor, plane = _floor(pts.xyz_m, sigma_h, altitude_m, params)
     rest = pts.take(~floor)
-    bins = max(2, int(round(math.degrees(intr.hfov_rad) / params.bin_deg)))
-    binned = bin_surfaces(rest.xyz_m, rest.row, rest.rows, mount.yaw_rad, intr.hfov_rad, bins,
+    centre_rad, span_rad = view_span(intr, mount)
+    bins = max(2, int(round(math.degrees(span_rad) / params.bin_deg)))
+    binned = bin_surfaces(rest.xyz_m, rest.row, rest.rows, centre_rad, span_rad, bins,
                           blobs, params.min_support, params.surface_band_m)
     observations, posts = surface_observations(binned, blobs)
     ground_down_m = altitude_m if plane is None else plane.c

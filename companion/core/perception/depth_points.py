@@ -101,3 +101,24 @@ def level_points(depth: np.ndarray, intr: DepthIntrinsics, mount: CameraMount,
     xyz = optical @ to_level.T + offset
     return LevelPoints(xyz, rows.astype(np.int32), int(depth.shape[0]),
                        int(depth.size - zv.size), zv.astype(np.float64))
+
+
+def view_span(intr: DepthIntrinsics, mount: CameraMount, samples: int = 16) -> tuple[float, float]:
+    """(centre_rad, span_rad): the bearings (from the body's nose, right positive) the image's
+    border covers through the mount. A level camera spans its horizontal field of view; a
+    pitched one's lower corners reach wider, a camera rolled on its side spans its vertical
+    field; one looking nearly straight down, the whole circle."""
+    u = np.linspace(-0.5, intr.width_px - 0.5, samples)
+    v = np.linspace(-0.5, intr.height_px - 0.5, samples)
+    border = np.concatenate([np.column_stack((u, np.full(samples, v[0]))),
+                             np.column_stack((u, np.full(samples, v[-1]))),
+                             np.column_stack((np.full(samples, u[0]), v)),
+                             np.column_stack((np.full(samples, u[-1]), v))])
+    rays = np.column_stack(((border[:, 0] - intr.cx_px) / intr.fx_px,
+                            (border[:, 1] - intr.cy_px) / intr.fy_px, np.ones(len(border))))
+    frd = rays @ mount.frd_from_optical().T
+    offset = np.angle(np.exp(1j * (np.arctan2(frd[:, 1], frd[:, 0]) - mount.yaw_rad)))
+    low, high = float(offset.min()), float(offset.max())
+    if high - low >= np.pi * 1.9 or np.hypot(frd[:, 0], frd[:, 1]).min() < 1e-6:
+        return mount.yaw_rad, 2.0 * np.pi
+    return mount.yaw_rad + 0.5 * (low + high), high - low
