@@ -1,8 +1,8 @@
 """``realsense-bag:FILE`` and ``realsense[:SERIAL]``: depth frames through Intel's SDK
 (pyrealsense2, optional extra ``depth``; its wheel needs libusb-1.0, Debian's libusb-1.0-0).
 
-A recording is played back not in real time (``set_real_time(False)``: every frame, as fast as it
-is read); its end is the end of the source. A live camera streams depth at the configured mode
+A recording is played back not in real time (``set_real_time(False)``, its depth sensor started
+on a frame queue: every frame, as fast as it is read); its end is the end of the source. A live camera streams depth at the configured mode
 through the librealsense post-processing filters Intel recommends for depth, in Intel's order:
 decimation, threshold (the valid span), depth to disparity, spatial (edge-preserving smoothing,
 hole filling off), temporal (persistence over frames), disparity to depth. Each is switchable.
@@ -21,6 +21,7 @@ from companion.core.perception.depth_frame import DepthFrame, DepthIntrinsics
 from companion.depth.frames import DepthSourceError, SourcedFrame, missing_extra
 
 WAIT_MS = 1000
+QUEUE_FRAMES = 1000
 
 
 @dataclass(frozen=True)
@@ -46,26 +47,43 @@ def _sdk(source: str):
 
 def read_realsense_bag(path: str, min_depth_m: float = 0.3,
                        max_depth_m: float = 20.0) -> Iterator[SourcedFrame]:
-    """Every depth frame of a RealSense recording (.bag or .db3), in order, not in real time."""
+    """Every depth frame of a RealSense recording (.bag or .db3), in order, not in real time:
+    the recording's depth sensor started on a frame queue (a pipeline may skip frames when not
+    in real time; docs/depth.md)."""
     source = f"realsense-bag:{path}"
     rs = _sdk(source)
     if not Path(path).exists():
         raise DepthSourceError(f"depth source {source}: no recording at {path}")
-    pipe, cfg = rs.pipeline(), rs.config()
-    cfg.enable_device_from_file(str(path), repeat_playback=False)
     try:
-        profile = pipe.start(cfg)
+        device = rs.context().load_device(str(path))
     except RuntimeError as exc:
         raise DepthSourceError(f"depth source {source}: the SDK cannot play it: {exc}") from None
+    device.as_playback().set_real_time(False)
+    found = [(sensor, profile) for sensor in device.query_sensors()
+             for profile in sensor.get_stream_profiles()
+             if profile.stream_type() == rs.stream.depth]
+    if not found:
+        kinds = sorted({str(p.stream_type()) for s in device.query_sensors()
+                        for p in s.get_stream_profiles()})
+        raise DepthSourceError(f"depth source {source}: the recording has no depth stream "
+                               f"(streams: {', '.join(kinds) or 'none'})")
+    sensor, profile = found[0]
+    scale = float(sensor.get_option(rs.option.depth_units)) \
+        if sensor.supports(rs.option.depth_units) else 0.001
+    queue = rs.frame_queue(QUEUE_FRAMES, True)
+    sensor.open(profile)
+    sensor.start(queue)
     try:
-        if not any(s.stream_type() == rs.stream.depth for s in profile.get_streams()):
-            raise DepthSourceError(f"depth source {source}: the recording has no depth stream "
-                                   f"(streams: {', '.join(str(s.stream_type()) for s in profile.get_streams())})")
-        profile.get_device().as_playback().set_real_time(False)
-        scale = _depth_scale(profile)
-        yield from _frames(rs, pipe, scale, min_depth_m, max_depth_m)
+        while True:
+            ok, frame = queue.try_wait_for_frame(WAIT_MS)
+            if not ok:
+                return                   # the recording's end
+            depth = frame.as_depth_frame()
+            if depth:
+                yield _sourced(depth, scale, min_depth_m, max_depth_m)
     finally:
-        pipe.stop()
+        sensor.stop()
+        sensor.close()
 
 
 def read_realsense(serial: str = "", options: LiveOptions = LiveOptions()) -> Iterator[SourcedFrame]:
@@ -92,7 +110,7 @@ def read_realsense(serial: str = "", options: LiveOptions = LiveOptions()) -> It
                                f"{exc}") from None
     try:
         yield from _frames(rs, pipe, _depth_scale(profile), options.min_depth_m,
-                           options.max_depth_m, _filters(rs, options), live=True)
+                           options.max_depth_m, _filters(rs, options))
     finally:
         pipe.stop()
 
@@ -118,28 +136,29 @@ def _depth_scale(profile) -> float:
     try:
         return float(profile.get_device().first_depth_sensor().get_depth_scale())
     except RuntimeError:
-        return 0.001                 # RealSense D4xx's default unit (a recording without it)
+        return 0.001                 # RealSense D4xx's default unit
 
 
 def _frames(rs, pipe, scale: float, min_depth_m: float, max_depth_m: float,
-            filters: list = (), live: bool = False) -> Iterator[SourcedFrame]:
+            filters: list) -> Iterator[SourcedFrame]:
     while True:
         ok, frames = pipe.try_wait_for_frames(WAIT_MS)
         if not ok:
-            if live:
-                raise DepthSourceError("depth source realsense: no frame for "
-                                       f"{WAIT_MS} ms (camera unplugged?)")
-            return                   # a recording's end
+            raise DepthSourceError(f"depth source realsense: no frame for {WAIT_MS} ms "
+                                   "(camera unplugged?)")
         depth = frames.get_depth_frame()
         if not depth:
             continue
         for step in filters:
             depth = step.process(depth)
-        depth = depth.as_depth_frame()
-        intr = depth.profile.as_video_stream_profile().get_intrinsics()
-        pixels = np.asanyarray(depth.get_data()).astype(np.uint16, copy=True)
-        yield SourcedFrame(
-            DepthFrame(int(depth.get_frame_number()), 0, 0,
-                       DepthIntrinsics(intr.width, intr.height, intr.fx, intr.fy, intr.ppx,
-                                       intr.ppy, min_depth_m, max_depth_m, scale), pixels),
-            float(depth.get_timestamp()) / 1000.0)
+        yield _sourced(depth.as_depth_frame(), scale, min_depth_m, max_depth_m)
+
+
+def _sourced(depth, scale: float, min_depth_m: float, max_depth_m: float) -> SourcedFrame:
+    intr = depth.profile.as_video_stream_profile().get_intrinsics()
+    pixels = np.asanyarray(depth.get_data()).astype(np.uint16, copy=True)
+    return SourcedFrame(
+        DepthFrame(int(depth.get_frame_number()), 0, 0,
+                   DepthIntrinsics(intr.width, intr.height, intr.fx, intr.fy, intr.ppx,
+                                   intr.ppy, min_depth_m, max_depth_m, scale), pixels),
+        float(depth.get_timestamp()) / 1000.0)

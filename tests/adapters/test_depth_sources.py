@@ -134,14 +134,24 @@ def _record_realsense(path, depth: bool = True):
 
 
 def test_a_realsense_recording_plays_back_every_frame_through_the_sdk(tmp_path):
-    path = tmp_path / "flight.db3"
-    frames_in = _record_realsense(path)
-    got = list(open_depth_source(f"realsense-bag:{path}"))
-    assert [g.frame.frame_number for g in got] == [0, 1, 2]
-    for sourced, pixels in zip(got, frames_in):
-        assert np.array_equal(sourced.frame.depth, pixels)
+    pytest.importorskip("pyrealsense2", reason="the depth extra (pyrealsense2) is not installed")
+    from companion.core.perception.depth_frame import DepthFrame, DepthIntrinsics
+    from companion.tools.depth_bags import RealSenseBagWriter, camera_path
+    intr = DepthIntrinsics(W, H, 40.0, 40.0, 31.5, 23.5, 0.3, 20.0)
+    frames_in = [DepthFrame(i, 5000 + 100 * i, 0, intr,
+                            np.arange(W * H, dtype=np.uint16).reshape(H, W) + 1000 * i)
+                 for i in range(5)]
+    writer = RealSenseBagWriter(tmp_path / "flight.db3")     # companion depth-record's writer
+    for frame in frames_in:
+        writer.write(frame)
+    writer.close()
+    got = list(open_depth_source(f"realsense-bag:{camera_path(tmp_path / 'flight.db3', 0)}"))
+    assert [g.frame.frame_number for g in got] == [0, 1, 2, 3, 4]
+    for sourced, frame in zip(got, frames_in):
+        assert np.array_equal(sourced.frame.depth, frame.depth)
     assert got[1].host_time_s == pytest.approx(5.1)
     assert got[0].frame.intrinsics.fx_px == pytest.approx(40.0)
+    assert got[0].frame.intrinsics.depth_scale_m == pytest.approx(0.001)
 
 
 def test_a_recording_without_a_depth_stream_is_refused(tmp_path):
@@ -158,3 +168,41 @@ def test_no_camera_is_a_clear_error():
         pytest.skip("a RealSense camera is plugged in")
     with pytest.raises(DepthSourceError, match="no RealSense camera"):
         next(iter(open_depth_source("realsense")))
+
+
+def test_the_stubs_stream_reads_through_the_same_interface():
+    import socket
+    import threading
+    from types import SimpleNamespace
+
+    from sitl_stub.depth_stream import encode_frame
+    spec = SimpleNamespace(width_px=W, height_px=H, fx_px=40.0, fy_px=40.0, cx_px=31.5,
+                           cy_px=23.5, min_depth_m=0.3, max_depth_m=20.0, depth_scale_m=0.001)
+    frames = [SimpleNamespace(spec=spec, pixels=np.full((H, W), 500 * (i + 1), np.uint16),
+                              frame_number=i, time_boot_ms=1000 + 67 * i, camera_id=0)
+              for i in range(2)]
+    server = socket.create_server(("127.0.0.1", 0))
+    port = server.getsockname()[1]
+
+    def serve():
+        conn, _ = server.accept()
+        with conn:
+            for f in frames:
+                conn.sendall(encode_frame(f))
+        server.close()
+
+    thread = threading.Thread(target=serve, daemon=True)
+    thread.start()
+    got = list(open_depth_source(f"stub:127.0.0.1:{port}"))
+    thread.join(timeout=5.0)
+    assert [g.frame.time_boot_ms for g in got] == [1000, 1067]
+    assert all(g.host_time_s is None for g in got)           # the vehicle's clock already
+    assert np.array_equal(got[1].frame.depth, frames[1].pixels)
+
+
+def test_a_stub_that_is_not_there_is_a_clear_error():
+    import socket
+    with socket.create_server(("127.0.0.1", 0)) as probe:
+        port = probe.getsockname()[1]                         # closed again: nobody listens
+    with pytest.raises(DepthSourceError, match="cannot connect"):
+        next(iter(open_depth_source(f"stub:127.0.0.1:{port}")))
