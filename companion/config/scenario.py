@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from companion.config.checks import require_positive
+from companion.config.depth_perception import DepthPerceptionConfig
 from companion.config.loader import FieldError, build, read_yaml, require
 from companion.config.sections import AvoidanceConfig, EstimatorConfig
 from companion.config.world import NoiseConfig, SensorConfig, VehicleConfig, World
@@ -37,9 +38,11 @@ class PerceptionConfig:
     at most ``ground_margin_m`` above the ground (the vehicle's altitude minus the point's depth
     below the camera) is the floor, counted and never a landmark. ``camera_vfov_deg``: the
     camera's vertical field of view as the companion assumes it (null: the scenario's
-    sensor.vfov_deg in simulate and the demo, 58 deg, Intel's D455, for the service)."""
+    sensor.vfov_deg in simulate and the demo, 58 deg, Intel's D455, for the service). ``depth``:
+    depth pixels to obstacles and the frames' source (config/depth_perception.py)."""
     ground_margin_m: float = 0.5
     camera_vfov_deg: float | None = None
+    depth: DepthPerceptionConfig = field(default_factory=DepthPerceptionConfig)
 
     def __post_init__(self) -> None:
         require(math.isfinite(self.ground_margin_m) and self.ground_margin_m >= 0.0,
@@ -67,9 +70,9 @@ class Scenario:
     perception: PerceptionConfig = field(default_factory=PerceptionConfig)
 
     def __post_init__(self) -> None:
-        if self.avoidance.vertical and self.sensor.form != "centres":
-            raise FieldError("avoidance.vertical", "the depth sectors carry no z yet: vertical "
-                             "avoidance needs sensor.form centres")
+        if self.avoidance.vertical and self.sensor.form not in ("centres", "depth"):
+            raise FieldError("avoidance.vertical", "the depth sectors carry no z: vertical "
+                             "avoidance needs sensor.form centres or depth")
         goal = self.world.goal
         for i, obs in enumerate(self.world.obstacles):
             if obs.moving:

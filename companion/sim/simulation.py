@@ -104,7 +104,8 @@ def is_3d(scenario: Scenario) -> bool:
     """Vertical avoidance on, an obstacle with a height, or a camera that sees the floor: the
     run's summary then carries the 3D figures (a 2D run's stays as it was)."""
     world = scenario.world
-    return bool(scenario.avoidance.vertical) or scenario.sensor.sees_ground or any(
+    return bool(scenario.avoidance.vertical) or scenario.sensor.sees_ground \
+        or scenario.sensor.form == "depth" or any(
         item.height_m is not None or item.base_m > 0.0
         for item in world.obstacles + world.walls + world.buildings)
 
@@ -163,17 +164,31 @@ def with_position_fusion(scenario: Scenario, position_fusion: str | None) -> Sce
 
 def camera_frame(truth: TruthWorld, blobs: BlobParams) -> list:
     """What the companion sees of one frame in the scenario's sensor form: centres, the landmarks
-    of the sectors' blobs (core/perception/blobs.py, the companion's side of a depth camera), or both."""
+    of the sectors' blobs (core/perception/blobs.py, the companion's side of a depth camera), or both.
+    The depth form's frames go through ``_observe_depth`` instead."""
     form = truth.scenario.sensor.form
-    if form == "depth":
-        # the rendered frames (sim/depth_camera.py); the pixels -> observations pipeline is
-        # issue 44's: until it is wired here the depth camera's frames give no observation
-        truth.capture_depth()
-        return []
     frame = truth.observe() if form in ("centres", "both") else []
     if form in ("sectors", "both"):
         frame += blob_observations(*truth.observe_sectors(), blobs)
     return frame
+
+
+def _depth_perception(scenario: Scenario, seed: int):
+    """sensor.form depth: the rendered camera and the companion's perception of it (imported
+    only then: the renderer is needed by no other form)."""
+    if scenario.sensor.form != "depth":
+        return None
+    from companion.sim.depth_perceiver import SimDepthPerception
+    return SimDepthPerception(scenario, seed)
+
+
+def _observe_depth(nav: Navigator, depth, truth: TruthWorld, motion: tuple) -> None:
+    """The depth frames due now through the companion's perception, one update per frame time."""
+    frames = truth.capture_depth()
+    if frames:
+        for observations in depth.observations(frames, truth.depth_camera.last_pose, truth.t_s,
+                                               nav.altitude_m, *motion):
+            nav.observe(observations)
 
 
 def with_speed(scenario: Scenario, speed_mps: float | None) -> Scenario:
@@ -226,7 +241,12 @@ def run_once(scenario: Scenario, seed: int, strategy: str | None = None,
     blobs = BlobParams(range_sigma_m=scenario.sensor.range_sigma_m,
                        bearing_sigma_rad=scenario.sensor.bearing_sigma_rad,
                        range_sigma_k_per_m=scenario.estimator_config().range_sigma_k_per_m)
-    nav.observe(camera_frame(truth, blobs))
+    depth = _depth_perception(scenario, seed)
+    motion = (truth.vel_ne_mps, float(nav.slam.mean[2]), 0.0)    # for the depth frames' delay
+    if depth is None:
+        nav.observe(camera_frame(truth, blobs))
+    else:
+        _observe_depth(nav, depth, truth, motion)
     for step in range(1, max_steps + 1):
         command, change = nav.decide(truth.t_s)
         if change is not None and change.landmark_index is not None:
@@ -252,6 +272,7 @@ def run_once(scenario: Scenario, seed: int, strategy: str | None = None,
             nav.on_velocity(truth.t_s, odo.vel_north_mps, odo.vel_east_mps, odo.yaw_rad,
                             odo.yaw_rate_rad_s)
             reported_yaw = odo.yaw_rad
+            motion = ((odo.vel_north_mps, odo.vel_east_mps), odo.yaw_rad, odo.yaw_rate_rad_s)
             if fuse:
                 nav.slam.inflate_position(drift.step(truth.t_s, truth.gps_available()))
             if fuse and truth.gps_available():
@@ -269,6 +290,9 @@ def run_once(scenario: Scenario, seed: int, strategy: str | None = None,
         else:
             odo = truth.step(command.speed_mps, gamma)
             nav.predict(odo.speed_mps, odo.heading_change_rad, dt)
+            heading = float(nav.slam.mean[2])
+            motion = (odo.speed_mps * np.array([math.cos(heading), math.sin(heading)]), heading,
+                      odo.heading_change_rad / dt)
         step_m = float(np.hypot(*(truth.pose[:2] - before)))
         path_m += step_m
         alt_before = truth.altitude_m
@@ -278,7 +302,9 @@ def run_once(scenario: Scenario, seed: int, strategy: str | None = None,
         path_3d_m += math.hypot(step_m, rise)
         climb_m += max(rise, 0.0)
         alt_range_m = [min(alt_range_m[0], truth.altitude_m), max(alt_range_m[1], truth.altitude_m)]
-        if step % obs_every == 0:
+        if depth is not None:
+            _observe_depth(nav, depth, truth, motion)
+        elif step % obs_every == 0:
             nav.observe(camera_frame(truth, blobs))
         clear = truth.clearance()
         min_clearance = min(min_clearance, clear.clearance_m)
@@ -321,6 +347,8 @@ def run_once(scenario: Scenario, seed: int, strategy: str | None = None,
                       "obstacles_seen": len(truth.seen_ids),
                       **nav.lifecycle.counts},
     }
+    if depth is not None:
+        summary["depth"] = depth.summary()
     if nav.archive is not None:                     # the bounded map, when configured
         summary["landmarks"].update(in_archive=len(nav.archive), **nav.archive.counts)
     if three_d:

@@ -88,7 +88,7 @@ class LandmarkManager:
         kept, heights = [], []
         for obs in observations:
             verdict = classify(obs.top_down_m, obs.bottom_down_m, obs.range_m, altitude_m,
-                               self.extent_params)
+                               self.extent_params, obs.top_clipped, obs.bottom_clipped)
             if verdict == "ground":
                 self.points["ground"] += 1
                 continue

@@ -85,7 +85,9 @@ class Observation:
     evaluate again at the landmark's predicted range (EkfSlam.set_range_model).
     ``top_down_m`` / ``bottom_down_m``: the highest and lowest of its points, as depths below the
     camera (FRD z, down positive; core/perception/vertical_extent.py); None: a 2D observation. The EKF
-    itself never reads them.
+    itself never reads them. ``top_clipped`` / ``bottom_clipped``: the camera saw the obstacle
+    reach its image's upper / lower edge (a depth image's points, perception/depth_obstacles.py),
+    so that bound is not the obstacle's, whatever the geometry of a level view says.
     """
     range_m: float
     bearing_rad: float
@@ -94,6 +96,8 @@ class Observation:
     top_down_m: float | None = None
     bottom_down_m: float | None = None
     range_modelled: bool = False
+    top_clipped: bool = False
+    bottom_clipped: bool = False
 
     def meas_cov_array(self) -> np.ndarray | None:
         return None if self.meas_cov is None else np.asarray(self.meas_cov, dtype=float)

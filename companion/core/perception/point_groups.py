@@ -46,7 +46,9 @@ def group_points(observations: list[Observation]) -> tuple[list[Observation], in
             continue
         first = out[at]
         out[at] = replace(first, top_down_m=min(first.top_down_m, obs.top_down_m),
-                          bottom_down_m=max(first.bottom_down_m, obs.bottom_down_m))
+                          bottom_down_m=max(first.bottom_down_m, obs.bottom_down_m),
+                          top_clipped=first.top_clipped or obs.top_clipped,
+                          bottom_clipped=first.bottom_clipped or obs.bottom_clipped)
         merged += 1
     return out, merged
 

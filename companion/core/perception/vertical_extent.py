@@ -45,9 +45,12 @@ class PointHeights:
 
 
 def classify(top_down_m: float | None, bottom_down_m: float | None, range_m: float,
-             altitude_m: float, params: ExtentParams) -> str | PointHeights | None:
+             altitude_m: float, params: ExtentParams, top_clipped: bool = False,
+             bottom_clipped: bool = False) -> str | PointHeights | None:
     """'bad' (a non-finite z), 'ground' (its highest point at or below the ground's margin),
-    None (no z: a 2D observation), else the PointHeights."""
+    None (no z: a 2D observation), else the PointHeights. ``top_clipped`` / ``bottom_clipped``:
+    the camera says that bound ran out of its image (a pitched or tilted camera's edge is not
+    the level view's), so it is not seen whatever the level view's edge says."""
     if top_down_m is None and bottom_down_m is None:
         return None
     if top_down_m is None or bottom_down_m is None or not (
@@ -61,8 +64,9 @@ def classify(top_down_m: float | None, bottom_down_m: float | None, range_m: flo
     sigma = math.hypot(params.altitude_sigma_m, max(range_m, 0.0) * params.elevation_sigma_rad)
     reach = max(range_m, 0.0) * math.tan(0.5 * params.vfov_rad)
     edge = max(EDGE_FLOOR_M, EDGE_SIGMAS * sigma)
-    top_seen = top < altitude_m + reach - edge
-    bottom_seen = bottom > altitude_m - reach + edge or bottom <= params.ground_margin_m
+    top_seen = top < altitude_m + reach - edge and not top_clipped
+    bottom_seen = (bottom > altitude_m - reach + edge and not bottom_clipped) \
+        or bottom <= params.ground_margin_m
     return PointHeights(top, max(bottom, 0.0), sigma, top_seen, bottom_seen)
 
 

@@ -1,0 +1,62 @@
+"""The estimator's recent poses, to place a depth frame where the vehicle was when it was captured.
+
+A frame is captured at ``t_capture_s`` (the vehicle's clock: the stub's time_boot_ms natively, a
+camera's host time mapped through the service's time sync) and perceived later, when the
+estimate is at ``t_now_s``. Its points are in the level frame at capture; ``motion_since`` gives
+how the vehicle moved from the capture to now (core/perception/depth_perception.MotionSince), from
+the estimates kept here, interpolated at the capture (linear in position, shortest way in yaw).
+A capture older than the history, or in the future, is refused (None): the caller counts it.
+"""
+from __future__ import annotations
+
+import math
+from collections import deque
+
+from companion.core.geometry import wrap_angle
+from companion.core.perception.depth_perception import MotionSince
+
+
+class PoseHistory:
+    """The last ``span_s`` of estimated poses (north_m, east_m, yaw_rad) and altitudes."""
+
+    def __init__(self, span_s: float = 1.0) -> None:
+        if span_s <= 0.0:
+            raise ValueError(f"span_s must be > 0, got {span_s}")
+        self.span_s = span_s
+        self._poses: deque[tuple[float, float, float, float, float]] = deque()
+
+    def add(self, t_s: float, north_m: float, east_m: float, yaw_rad: float,
+            altitude_m: float = 0.0) -> None:
+        """An estimate at ``t_s`` (not earlier than the last one added: an older one is
+        ignored)."""
+        if self._poses and t_s < self._poses[-1][0]:
+            return
+        self._poses.append((t_s, north_m, east_m, yaw_rad, altitude_m))
+        while self._poses and self._poses[0][0] < t_s - self.span_s:
+            self._poses.popleft()
+
+    def at(self, t_s: float) -> tuple[float, float, float, float] | None:
+        """(north_m, east_m, yaw_rad, altitude_m) interpolated at ``t_s``, None outside."""
+        poses = self._poses
+        if not poses or t_s < poses[0][0] - 1e-9 or t_s > poses[-1][0] + 1e-9:
+            return None
+        for (t0, n0, e0, y0, a0), (t1, n1, e1, y1, a1) in zip(poses, list(poses)[1:]):
+            if t0 <= t_s <= t1:
+                w = 0.0 if t1 <= t0 else (t_s - t0) / (t1 - t0)
+                return (n0 + w * (n1 - n0), e0 + w * (e1 - e0),
+                        wrap_angle(y0 + w * wrap_angle(y1 - y0)), a0 + w * (a1 - a0))
+        _, n, e, y, a = poses[-1]
+        return n, e, y, a
+
+    def motion_since(self, t_capture_s: float) -> MotionSince | None:
+        """How the vehicle moved from ``t_capture_s`` to the latest estimate, in the level frame
+        at capture (forward, right, down), and the heading's change; None if the capture lies
+        outside the history."""
+        then = self.at(t_capture_s)
+        if then is None:
+            return None
+        _, n1, e1, y1, a1 = self._poses[-1]
+        n0, e0, y0, a0 = then
+        c, s = math.cos(y0), math.sin(y0)
+        dn, de = n1 - n0, e1 - e0
+        return MotionSince(c * dn + s * de, -s * dn + c * de, a0 - a1, wrap_angle(y1 - y0))
