@@ -15,14 +15,17 @@ import asyncio
 import contextlib
 import logging
 import time
+from types import SimpleNamespace
 
 from companion.config.secrets import read_signing_key
+from companion.config.link import LinkConfig
 from companion.config.service import CompanionConfig
 from companion.daemon.streams import STREAMS, StreamRequests
 from companion.errors import CompanionError
 from companion.mavlink import codec, dialect
 from companion.mavlink import doctor_codec as dc
 from companion.mavlink.link import MavlinkLink, open_link
+from companion.onboard import autopilot_dialect
 from companion.onboard.doctor_checks import Check, evaluate
 from companion.onboard.doctor_facts import Facts, Observer
 from companion.onboard.doctor_params import profile_for
@@ -51,9 +54,19 @@ class ListenOnly:
 
 
 class _Vehicle:
-    """What StreamRequests reads of the pipeline: the vehicle's ids, once heard."""
+    """What StreamRequests reads of the pipeline: the vehicle's ids, once heard, and the
+    autopilot's dialect as the service's identity resolves it (PX4's streams are asked
+    differently: daemon/streams.py)."""
     vehicle: tuple[int, int] | None = None
     needs_geo_reference = False
+
+    def __init__(self, link: LinkConfig) -> None:
+        self._link = link
+        self.identity = SimpleNamespace(dialect=self.dialect_of(None))
+
+    def dialect_of(self, heartbeat_autopilot: int | None) -> autopilot_dialect.Dialect:
+        return autopilot_dialect.resolve(self._link.autopilot, heartbeat_autopilot,
+                                         self._link.guided_custom_mode)
 
 
 class Doctor:
@@ -61,7 +74,7 @@ class Doctor:
         self.config = config
         self.link = link
         self.out = ListenOnly(link)
-        self.found = _Vehicle()
+        self.found = _Vehicle(config.link)
         self.streams = StreamRequests(config.streams, self.out, self.found)
         self.observer = Observer(config, link.now_us() / 1e6)
         self.streams.on_asked = self.observer.streams_asked_at
@@ -79,6 +92,7 @@ class Doctor:
             vehicle = self.observer.vehicle
             if vehicle is not None and self.found.vehicle is None:
                 self.found.vehicle = (vehicle.system_id, vehicle.component_id)
+                self.found.identity.dialect = self.found.dialect_of(vehicle.autopilot)
                 if self.config.link.system_id is None:
                     self.link.encoder.system_id = vehicle.system_id
                 log.info("vehicle %d/%d: asking for its streams", *self.found.vehicle)
@@ -148,4 +162,6 @@ async def diagnose(config: CompanionConfig, url: str, seconds: float,
                     tg.create_task(doctor.ask(), name="ask")
         facts = doctor.facts()
     needed = {msg_id: getattr(config.streams, key) for msg_id, key in STREAMS}
+    if doctor.found.identity.dialect.name == "px4":        # ESTIMATOR_STATUS for the EKF's
+        needed = {codec.px4_stream_request(msg_id, hz)[0]: hz for msg_id, hz in needed.items()}
     return facts, evaluate(facts, config, needed, source)

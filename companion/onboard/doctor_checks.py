@@ -13,6 +13,7 @@ import statistics
 
 from companion.config.service import CompanionConfig
 from companion.mavlink import doctor_codec as dc
+from companion.mavlink import px4_modes
 from companion.onboard.doctor_facts import Facts
 from companion.onboard.doctor_params import FAIL, OK, WARN, Check, profile_for
 
@@ -110,7 +111,8 @@ def _slow_why(msg_id: int, got: float) -> str:
     return {245: "the flight phase comes from the altitude instead",
             33: "no altitude above home (phase fallback), no lat/lon",
             24: "the position is not fused (GPS-denied SLAM)",
-            193: "the position is not fused (GPS-denied SLAM)"}.get(msg_id, "missing") \
+            193: "the position is not fused (GPS-denied SLAM)",
+            230: "the position is not fused (GPS-denied SLAM)"}.get(msg_id, "missing") \
         if got == 0.0 else "slower than asked"
 
 
@@ -169,7 +171,7 @@ def camera(facts: Facts, config: CompanionConfig) -> list[Check]:
             f"{cam.frames_hz:.1f} frames/s")
     cruise = config.commanding.cruise_speed_mps
     if cam.frames_hz < stale_hz:
-        out.append(Check("camera", FAIL, text + f": below 1 per failsafe.obstacle_timeout_s",
+        out.append(Check("camera", FAIL, text + ": below 1 per failsafe.obstacle_timeout_s",
                          "the service takes the camera for stale and holds: raise its rate"))
     elif cruise / cam.frames_hz > config.safety_distance_m / 4.0:
         out.append(Check("camera", WARN, text + f": {cruise / cam.frames_hz:.1f} m flown between "
@@ -270,6 +272,8 @@ def steering(facts: Facts, config: CompanionConfig) -> Check:
     if profile is None or profile.supported is not None:
         return Check("steering mode", FAIL, "not judged: autopilot not flown by this version",
                      "see the autopilot line")
+    if profile.steering_mode == "OFFBOARD":
+        return steering_px4(facts, config)
     mode = config.link.guided_custom_mode
     now = dc.copter_mode_name(v.custom_mode)
     if v.mav_type not in COPTER_TYPES or not v.custom_modes:
@@ -287,3 +291,24 @@ def steering(facts: Facts, config: CompanionConfig) -> Check:
                      "ArduCopter refuses to arm or switch to GUIDED armed",
                      "wait for the GPS fix / EKF origin (or an external position source)")
     return Check("steering mode", OK, text + "; the EKF has the position it needs")
+
+
+def steering_px4(facts: Facts, config: CompanionConfig) -> Check:
+    """PX4: OFFBOARD is accepted only after a setpoint stream of about a second, which the
+    service sends while the vehicle is armed and airborne (onboard/autopilot_dialect.py), and
+    PX4 needs a local position to fly it; who switches is px4.offboard's choice."""
+    v = facts.vehicle
+    now = px4_modes.mode_name(v.custom_mode)
+    by = {"operator": "the operator switches (px4.offboard: operator)",
+          "companion": "the service asks after the take-off (px4.offboard: companion)"}
+    text = f"OFFBOARD, {by[config.px4.offboard]}; now {now}"
+    if v.mav_type not in COPTER_TYPES:
+        return Check("steering mode", FAIL, f"{dc.vehicle_type_name(v.mav_type)}: not a multicopter",
+                     "the service flies multicopters")
+    if facts.ekf_flags is None:
+        return Check("steering mode", WARN, text + "; position unknown (no ESTIMATOR_STATUS)",
+                     "PX4 refuses OFFBOARD velocity control without a local position")
+    if not facts.ekf_flags & (EKF_POS_HORIZ_ABS | EKF_POS_HORIZ_REL):
+        return Check("steering mode", FAIL, text + "; no horizontal position in the estimator",
+                     "wait for the GPS fix (or an external position source)")
+    return Check("steering mode", OK, text + "; the estimator has the position OFFBOARD needs")

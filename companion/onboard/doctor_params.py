@@ -1,9 +1,8 @@
 """``companion doctor``: each autopilot's profile, and its parameters judged (pure).
 
 The doctor keys everything autopilot-specific off HEARTBEAT.autopilot through :data:`PROFILES`:
-the steering mode, the parameters to read (PARAM_REQUEST_READ) and how to judge them. ArduPilot
-is what the service flies today; PX4's profile names its parameters and judges them already,
-and says it is not flown yet: when the service speaks PX4, its ``supported`` becomes None.
+the steering mode, the parameters to read (PARAM_REQUEST_READ) and how to judge them. The service
+flies both (``supported`` None); a profile of an autopilot it does not fly says why not.
 """
 from __future__ import annotations
 
@@ -151,10 +150,7 @@ ARDUPILOT = AutopilotProfile(
     "ArduPilot", None, "GUIDED",
     ("GUID_TIMEOUT", "WPNAV_ACCEL", "PRX1_TYPE", "AVOID_ENABLE", "AVOID_MARGIN", "OA_TYPE"),
     judge_ardupilot)
-# The seam for PX4 (another branch adds it to the service): flip ``supported`` to None there.
-PX4 = AutopilotProfile(
-    "PX4", "this version of the service flies ArduPilot; PX4 support is being added",
-    "OFFBOARD", ("COM_OF_LOSS_T", "COM_OBL_RC_ACT"), judge_px4)
+PX4 = AutopilotProfile("PX4", None, "OFFBOARD", ("COM_OF_LOSS_T", "COM_OBL_RC_ACT"), judge_px4)
 PROFILES = {AUTOPILOT_ARDUPILOT: ARDUPILOT, AUTOPILOT_PX4: PX4}    # by HEARTBEAT.autopilot
 
 

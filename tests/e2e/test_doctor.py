@@ -50,6 +50,22 @@ def test_against_the_stub_every_line_is_ok(tmp_path):
     assert report["facts"]["rates_hz"]["32"] >= 5.0            # it asked, as the service does
 
 
+def test_against_the_stubs_px4_face_the_px4_lines_are_checked(tmp_path):
+    stub, _, udp_port = start_stub(tmp_path, "--autopilot", "px4", "--px4-arm-delay-s", "1",
+                                   scenario=COPTER)
+    try:
+        code, report = doctor(f"udpout:127.0.0.1:{udp_port}")
+    finally:
+        stub.stop()
+    checks = lines(report)
+    assert code == 0 and report["ready"], [c for c in report["checks"] if c["status"] != "ok"]
+    assert "PX4" in checks["vehicle"]["measured"]
+    assert checks["steering mode"]["measured"].startswith("OFFBOARD")
+    assert "stream ESTIMATOR_STATUS (230)" in checks           # PX4's, in place of EKF_STATUS_REPORT
+    assert "stream EKF_STATUS_REPORT (193)" not in checks
+    assert {"COM_OF_LOSS_T", "COM_OBL_RC_ACT"} <= set(checks) and "GUID_TIMEOUT" not in checks
+
+
 def test_a_stub_whose_camera_sends_nothing_is_not_ready_and_the_camera_is_named(tmp_path):
     stub, _, udp_port = start_stub(tmp_path, "--no-camera", scenario=COPTER)
     try:

@@ -133,7 +133,9 @@ def test_px4_is_named_and_its_parameters_judged_through_its_profile():
     checks = by_name(evaluate(facts(vehicle=px4, params={"COM_OF_LOSS_T": 1.0,
                                                          "COM_OBL_RC_ACT": 6.0}),
                               CONFIG, NEEDED))
-    assert checks["autopilot"].status == "fail" and "PX4" in checks["autopilot"].measured
+    assert "autopilot" not in checks                   # flown: no "not flown by this version"
+    assert checks["steering mode"].measured.startswith("OFFBOARD")
+    assert "GUIDED" not in checks["steering mode"].measured
     assert checks["COM_OF_LOSS_T"].status == "ok" and "5.0 m" in checks["COM_OF_LOSS_T"].measured
     assert checks["COM_OBL_RC_ACT"].status == "fail"
     hold = by_name(judge_px4(facts(params={"COM_OF_LOSS_T": 1.0, "COM_OBL_RC_ACT": 5.0}), CONFIG))
