@@ -341,7 +341,8 @@ class CompanionConfig:
         delay_s = 0.0 if self.estimator.tentative_in_guidance else self.commanding.perception_delay_s
         return replace(self.avoidance.union_params(self.camera_fov_rad),
                        sensor_range_m=self.estimator.sensor_max_range_m,
-                       perception_delay_s=delay_s)
+                       perception_delay_s=delay_s,
+                       control_period_s=self.commanding.setpoint_period_s)
 
     def vehicle_limits(self) -> VehicleLimits:
         """What the velocity choice assumes the vehicle can fly: ArduCopter in GUIDED, a
