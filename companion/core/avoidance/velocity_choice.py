@@ -42,6 +42,8 @@ SPEED_FRACTIONS = (1.0, 0.75, 0.5, 0.25)
 KEEP_TOLERANCE_M = 0.25    # the previous heading stays reachable down to d minus this: a choice
                            # on the edge of reachable must not flip every decision
 LOOK_PARTS = (1.0, 0.75, 0.5)  # a flank look's swing, then parts of it (flank_scan.py)
+BRAKE_ASIDE_TIE_M = 0.2   # with avoidance.speed_limit: a last resort braking aside must keep this
+                          # much more clearance than the nose-led hold (speed_limit.py)
 FIRST_CHUNK = 32           # candidates rolled out before the rest (see _first_passing)
 GRID = np.linspace(-math.pi, math.pi, 72, endpoint=False)     # 5 degrees, beside the cone edges
 
@@ -297,8 +299,14 @@ def choose_velocity(pose: np.ndarray, goal_heading: float, goal_distance: float,
         k = int(np.argmax(margin))
         if margin[k] > best_margin + 0.5:       # a slower option wins ties: less to go wrong
             best_margin, best = float(margin[k]), (int(everything[k]), speed)
-    if brakes_aside and evasion_now()[1][2] > best_margin + 0.5:
+    if evades and evasion_now()[1][2] > best_margin + 0.5:
         return evade_command(*evasion_now()[1][:2], mode="hold")
+    if brakes_aside and not evades:
+        # the speed limit's key: braking aside wins on its clearance alone, against the hold's
+        # own (without the previous heading's tolerance), by more than the roll-out's step
+        own = best_margin - (KEEP_TOLERANCE_M if best[0] == 1 else 0.0)
+        if evasion_now()[1][2] > own + BRAKE_ASIDE_TIE_M:
+            return evade_command(*evasion_now()[1][:2], mode="hold")
     return command(best[0], best[1], "hold")
 
 
