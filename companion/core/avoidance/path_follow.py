@@ -95,6 +95,13 @@ def _along(pose: np.ndarray, heading_rad: float, cruise: float, obstacles: np.nd
     headings = np.arctan2(np.sin(headings), np.cos(headings))
     wide = np.array([heading_rad + o for o in WIDE_OFFSETS_RAD])
     wide = np.arctan2(np.sin(wide), np.cos(wide))
+    previous = inputs.previous_heading_rad
+    if union.seen_speed_limit and previous is not None:
+        # the wide way last chosen first (a turn in place toward it goes on): a way on each side
+        # that passes or fails as the nose turns had the nose swing between them, never there
+        # (forest seeds 4 at 7 m/s and 49 at 10 m/s: 60 s in place, +90 and -60 degrees apart)
+        wide = wide[np.argsort(np.abs(np.remainder(wide - previous + math.pi, 2.0 * math.pi)
+                                      - math.pi), kind="stable")]
     for fraction, headings in [(f, headings) for f in SPEED_FRACTIONS] \
             + [(SPEED_FRACTIONS[-1], wide)]:
         speed = cruise * fraction
