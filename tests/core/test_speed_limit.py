@@ -112,3 +112,25 @@ def test_the_key_is_read_and_checked():
     assert copter.avoidance.union_params(FOV).seen_speed_limit is False
     with pytest.raises(FieldError, match="speed_limit"):
         AvoidanceConfig(safety_distance_m=1.0, horizon_s=4.0, eta=1.25, speed_limit="fast")
+
+
+def test_the_follower_keeps_turning_toward_the_wide_way_it_chose():
+    """Trunks ahead and beside close the leg and its near offsets; wide ways on both sides pass.
+    Without the key the first in the fixed order (+60 deg) is taken whatever was chosen before;
+    with it the one last chosen (+90 or -90), so a turn in place goes on instead of swinging
+    between sides (forest seeds 4 at 7 m/s and 49 at 10 m/s: 60 s in place)."""
+    from companion.core.avoidance import path_follow
+    from companion.core.avoidance.guidance import GuidanceInputs
+    from companion.core.avoidance.path_search import PathParams
+    trunks = np.array([[2.6, 0.0], [3.0, 1.5], [3.0, -1.5]])
+    for key, previous_deg, expected_deg in [(False, 90.0, 60.0), (False, -90.0, 60.0),
+                                            (True, None, 60.0), (True, 90.0, 90.0),
+                                            (True, -90.0, -90.0)]:
+        union = replace(OFF, path=PathParams(), seen_speed_limit=key)
+        previous = None if previous_deg is None else math.radians(previous_deg)
+        inputs = GuidanceInputs(np.zeros(3), np.array([60.0, 0.0]), trunks,
+                                previous_heading_rad=previous, motion=LIMITS.motion(0.0, 0.0, 0.0))
+        command = path_follow._along(inputs.pose, 0.0, 7.0, trunks, np.full(3, D), PARAMS, union,
+                                     inputs, 0.3)
+        assert command.mode == "path" and command.speed_mps == 0.0     # a turn in place
+        assert math.degrees(command.heading_rad) == pytest.approx(expected_deg)
