@@ -134,3 +134,18 @@ def test_the_follower_keeps_turning_toward_the_wide_way_it_chose():
                                      inputs, 0.3)
         assert command.mode == "path" and command.speed_mps == 0.0     # a turn in place
         assert math.degrees(command.heading_rad) == pytest.approx(expected_deg)
+
+
+def test_the_service_reads_the_key_over_the_shipped_config(tmp_path):
+    """A user's one-key layer turns it on for `companion run`, with the setpoint period as the
+    control period; a wrong value names the user's file and the key."""
+    from companion.config.loader import ConfigError
+    from companion.config.service import load_config
+    layer = tmp_path / "user.yaml"
+    layer.write_text("avoidance:\n  speed_limit: seen\n")
+    union = load_config(layer, over="config/companion.yaml").union_params()
+    assert union.seen_speed_limit and union.control_period_s == pytest.approx(0.1)
+    assert not load_config("config/companion.yaml").union_params().seen_speed_limit
+    layer.write_text("avoidance:\n  speed_limit: fast\n")
+    with pytest.raises(ConfigError, match="avoidance.speed_limit"):
+        load_config(layer, over="config/companion.yaml")
