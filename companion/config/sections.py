@@ -68,6 +68,11 @@ class AvoidanceConfig:
                                           # the camera's range but out of its view, is kept until
                                           # the camera could have seen it there (movers.prune; on
                                           # with evade_movers; docs/copter-headon-failures.md)
+    # Never faster than the vehicle can stop in the space its camera has seen free, the loop's
+    # latency (perception delay + a control period, + a/2j where jerk-shaped) counted, and a last
+    # resort that may brake sideways (core/avoidance/speed_limit.py). None: off (every flight as
+    # before); "seen": on (forest.yaml).
+    speed_limit: Literal["seen"] | None = None
     # Avoidance in 3D (core/avoidance/vertical.py): climb over what costs less to climb than to
     # fly round. None: off, except on the random worlds of heights (lowwalls, mixed): on.
     vertical: bool | None = None
@@ -91,6 +96,8 @@ class AvoidanceConfig:
         require(self.max_altitude_m > self.min_altitude_m, "max_altitude_m", self.max_altitude_m,
                 f"an altitude above min_altitude_m ({self.min_altitude_m:g} m)")
         require_positive("lookahead_s", self.lookahead_s)
+        require(self.speed_limit in (None, "seen"), "speed_limit", self.speed_limit,
+                "null (off) or 'seen'")
         require(self.hysteresis >= 0.0, "hysteresis", self.hysteresis, "a weight >= 0")
         if self.gap_margin_m is not None:
             require(self.gap_margin_m >= 0.0, "gap_margin_m", self.gap_margin_m, "a margin >= 0 m")
@@ -134,6 +141,7 @@ class AvoidanceConfig:
                            gap_margin_m=self.gap_margin_m, headway_first=self.headway_first,
                            evade_movers=self.evade_movers,
                            keep_near_tracks=self.keep_near_tracks,
+                           seen_speed_limit=self.speed_limit == "seen",
                            path=PathParams() if self.path_search else None,
                            flank_scan_rad=None if self.flank_scan_deg is None
                            else math.radians(self.flank_scan_deg),

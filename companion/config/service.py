@@ -308,9 +308,9 @@ class CompanionConfig:
         range (never outrun it: estimator.sensor_max_range_m, null: no such limit) and the time a
         new obstacle stays out of the decision."""
         delay_s = 0.0 if self.estimator.tentative_in_guidance else self.commanding.perception_delay_s
-        return replace(self.avoidance.union_params(self.camera_fov_rad),
+        return replace(self.avoidance.union_params(self.camera_fov_rad), perception_delay_s=delay_s,
                        sensor_range_m=self.estimator.sensor_max_range_m,
-                       perception_delay_s=delay_s)
+                       control_period_s=self.commanding.setpoint_period_s)
 
     def vehicle_limits(self) -> VehicleLimits:
         """What the velocity choice assumes the vehicle can fly: ArduCopter in GUIDED, a

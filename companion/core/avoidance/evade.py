@@ -37,6 +37,7 @@ from companion.core.avoidance.arc import STEP_S, Motion, Rollout, accel_limited_
 from companion.core.avoidance.seen_space import SeenSpace
 
 EVADE_SPEED_FRACTIONS = (1.0, 0.5)
+GENTLE_FRACTION = 0.25     # with avoidance.speed_limit: braking away from a threat (speed_limit.py)
 
 
 def fly_strafe(start_ne_m: np.ndarray, motion: Motion, headings_rad: np.ndarray,
@@ -86,10 +87,13 @@ def evasion_margins(position: np.ndarray, motion: Motion, headings: np.ndarray,
     return np.minimum(margin, unseen.min(axis=1) - need - min(now, 0.0))
 
 
-def evasion_candidates(headings: np.ndarray, cruise_mps: float) -> tuple[np.ndarray, np.ndarray]:
+def evasion_candidates(headings: np.ndarray, cruise_mps: float,
+                       gentle: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """(K,) headings and speeds: a stop first, then every heading at each EVADE_SPEED_FRACTIONS
-    of cruise."""
-    grid_h = np.concatenate([np.zeros(1)] + [headings for _ in EVADE_SPEED_FRACTIONS])
+    of cruise; ``gentle`` (avoidance.speed_limit): and at GENTLE_FRACTION of it, a brake with a
+    sideways component more than a side-step."""
+    fractions = EVADE_SPEED_FRACTIONS + ((GENTLE_FRACTION,) if gentle else ())
+    grid_h = np.concatenate([np.zeros(1)] + [headings for _ in fractions])
     grid_v = np.concatenate([np.zeros(1)] + [np.full(len(headings), f * cruise_mps)
-                                             for f in EVADE_SPEED_FRACTIONS])
+                                             for f in fractions])
     return grid_h, grid_v

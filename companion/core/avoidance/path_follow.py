@@ -32,7 +32,8 @@ from companion.core.avoidance.arc import clearance, fly_out
 from companion.core.avoidance.guidance import (GuidanceCommand, GuidanceInputs, GuidanceParams,
                                                approach_speed, toward_goal)
 from companion.core.avoidance.path_search import PlannedPath, plan_path
-from companion.core.avoidance.union import UnionParams, sensed_speed_limit, turn_speed_factor
+from companion.core.avoidance import speed_limit
+from companion.core.avoidance.union import UnionParams, turn_speed_factor
 from companion.core.avoidance.velocity_choice import _unseen_margin, guide_flyable, safety_radii
 
 SPEED_FRACTIONS = (1.0, 0.75, 0.5, 0.25)
@@ -65,8 +66,7 @@ def guide_with_plan(inputs: GuidanceInputs, params: GuidanceParams,
         return guide_flyable(replace(inputs, side=0, clear_reach_m=None), params, union), plan
     cruise = approach_speed(params, goal_distance)
     if union.sensor_range_m is not None:
-        cruise = min(cruise, sensed_speed_limit(union.sensor_range_m, params.safety_distance_m,
-                                                motion.max_accel_mps2, union.perception_delay_s))
+        cruise = min(cruise, speed_limit.cruise_cap(union, params.safety_distance_m, motion))
     chosen = _along(pose, plan.heading_rad, cruise, obstacles, radii, params, union, inputs,
                     min(union.path.hold_m, plan.margin_m))
     if chosen is not None:
@@ -95,6 +95,13 @@ def _along(pose: np.ndarray, heading_rad: float, cruise: float, obstacles: np.nd
     headings = np.arctan2(np.sin(headings), np.cos(headings))
     wide = np.array([heading_rad + o for o in WIDE_OFFSETS_RAD])
     wide = np.arctan2(np.sin(wide), np.cos(wide))
+    previous = inputs.previous_heading_rad
+    if union.seen_speed_limit and previous is not None:
+        # the wide way last chosen first (a turn in place toward it goes on): a way on each side
+        # that passes or fails as the nose turns had the nose swing between them, never there
+        # (forest seeds 4 at 7 m/s and 49 at 10 m/s: 60 s in place, +90 and -60 degrees apart)
+        wide = wide[np.argsort(np.abs(np.remainder(wide - previous + math.pi, 2.0 * math.pi)
+                                      - math.pi), kind="stable")]
     for fraction, headings in [(f, headings) for f in SPEED_FRACTIONS] \
             + [(SPEED_FRACTIONS[-1], wide)]:
         speed = cruise * fraction

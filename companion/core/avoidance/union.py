@@ -62,6 +62,10 @@ class UnionParams:
                                       # coasting tracks kept while unseeable near (evade.py)
     keep_near_tracks: bool = False    # a coasting mover track predicted near but out of view is
                                       # kept (movers.prune; with evade_movers always)
+    seen_speed_limit: bool = False    # velocity choice and path follower: never faster than the
+                                      # vehicle stops in the space seen free, the loop's latency
+                                      # counted; the last resort brakes sideways too (speed_limit.py)
+    control_period_s: float = 0.0     # ... the decision's period, part of that latency
 
 
 def turn_speed_factor(heading_rad: float, desired_rad: float, fov_rad: float) -> float:

@@ -28,20 +28,22 @@ from dataclasses import replace
 import numpy as np
 
 from companion.core.avoidance.arc import (MAX_GROWTH_M, Motion, Rollout, clearance, fly_out,
-                                          margins_by_obstacle, stopping_distance_m)
+                                          margins_by_obstacle)
 from companion.core.avoidance.evade import evasion_candidates, evasion_margins
 from companion.core.avoidance.guidance import (GuidanceCommand, GuidanceInputs, GuidanceParams,
                                                approach_speed, inflated_radius, toward_goal)
+from companion.core.avoidance import speed_limit
 from companion.core.avoidance.seen_space import SeenSpace
 from companion.core.avoidance.union import (MAX_SPREAD_M, Geometry, UnionParams, blocking,
-                                            candidate_headings, sensed_speed_limit,
-                                            turn_speed_factor)
+                                            candidate_headings, turn_speed_factor)
 from companion.core.geometry import wrap_angle, wrap_angles
 
 SPEED_FRACTIONS = (1.0, 0.75, 0.5, 0.25)
 KEEP_TOLERANCE_M = 0.25    # the previous heading stays reachable down to d minus this: a choice
                            # on the edge of reachable must not flip every decision
 LOOK_PARTS = (1.0, 0.75, 0.5)  # a flank look's swing, then parts of it (flank_scan.py)
+BRAKE_ASIDE_TIE_M = 0.2   # with avoidance.speed_limit: a last resort braking aside must keep this
+                          # much more clearance than the nose-led hold (speed_limit.py)
 FIRST_CHUNK = 32           # candidates rolled out before the rest (see _first_passing)
 GRID = np.linspace(-math.pi, math.pi, 72, endpoint=False)     # 5 degrees, beside the cone edges
 
@@ -76,8 +78,7 @@ def guide_flyable(inputs: GuidanceInputs, params: GuidanceParams,
         return GuidanceCommand(0.0, pose[2], "arrived")
     cruise = approach_speed(params, goal_distance)
     if union.sensor_range_m is not None:
-        cruise = min(cruise, sensed_speed_limit(union.sensor_range_m, params.safety_distance_m,
-                                                motion.max_accel_mps2, union.perception_delay_s))
+        cruise = min(cruise, speed_limit.cruise_cap(union, params.safety_distance_m, motion))
     reference = pose[2] if previous_heading_rad is None else previous_heading_rad
     radii = safety_radii(inputs, params)
     gaps = np.hypot(*(obstacles - pose[:2]).T) - radii if len(obstacles) else np.empty(0)
@@ -223,6 +224,10 @@ def choose_velocity(pose: np.ndarray, goal_heading: float, goal_distance: float,
                                yaw_rad=yaw, free_course=True)
 
     evades = union.evade_movers and _evades(motion, velocities)
+    # the last resort brakes sideways too: with movers (evade_movers), or anywhere with the speed
+    # limit's key (speed_limit.py), a multicopter's
+    brakes_aside = evades or (union.seen_speed_limit and motion.nose_rad is not None
+                              and motion.max_lateral_accel_mps2 is not None)
     evasion: list = []          # _evasion's answer, computed once, when asked for
 
     def evasion_now() -> tuple:
@@ -286,7 +291,7 @@ def choose_velocity(pose: np.ndarray, goal_heading: float, goal_distance: float,
         first, _ = _first_passing(everything, 0, lambda k: flyable(k, speed), offset, False)
         if first is not None:
             return command(first, speed, "slow" if speed else "stop")
-    if evades and evasion_now()[0] is not None:
+    if brakes_aside and evasion_now()[0] is not None:
         return evade_command(*evasion_now()[0][:2])
     best_margin, best = -np.inf, (0, 0.0)
     for speed in (0.0, 0.5 * cruise, cruise):
@@ -296,6 +301,12 @@ def choose_velocity(pose: np.ndarray, goal_heading: float, goal_distance: float,
             best_margin, best = float(margin[k]), (int(everything[k]), speed)
     if evades and evasion_now()[1][2] > best_margin + 0.5:
         return evade_command(*evasion_now()[1][:2], mode="hold")
+    if brakes_aside and not evades:
+        # the speed limit's key: braking aside wins on its clearance alone, against the hold's
+        # own (without the previous heading's tolerance), by more than the roll-out's step
+        own = best_margin - (KEEP_TOLERANCE_M if best[0] == 1 else 0.0)
+        if evasion_now()[1][2] > own + BRAKE_ASIDE_TIE_M:
+            return evade_command(*evasion_now()[1][:2], mode="hold")
     return command(best[0], best[1], "hold")
 
 
@@ -313,7 +324,7 @@ def _evasion(position: np.ndarray, motion: Motion, goal_heading: float, referenc
     """The evasions (evade.py) as (heading, speed, margin): the first moving one by the union
     law's cost (goal, hysteresis, side) whose margin is >= 0, or None; and the one with the most
     margin, the stop winning ties of 0.5 m (less to go wrong), for the last resort."""
-    headings, speeds = evasion_candidates(GRID, cruise)
+    headings, speeds = evasion_candidates(GRID, cruise, union.seen_speed_limit)
     margin = evasion_margins(position, motion, headings, speeds, union.lookahead_s, obstacles,
                              radii, velocities, growth_mps, seen, d)
     offset = wrap_angles(headings - goal_heading)
@@ -371,18 +382,13 @@ def look_flyable(pose: np.ndarray, heading: float, speed: float, params: Guidanc
     return unseen is None or bool(unseen[0] >= 0.0)
 
 
-def _stopping_m(speed: float, motion: Motion, union: UnionParams) -> float:
-    """How far the vehicle goes before a new obstacle enters the decision and it has stopped."""
-    return stopping_distance_m(speed, union.perception_delay_s, motion.max_accel_mps2)
-
-
 def _unseen_margin(seen: SeenSpace | None, position: np.ndarray, motion: Motion,
                    headings: np.ndarray, speed: float, union: UnionParams,
                    d: float) -> np.ndarray | None:
     """_seen_margin where the check applies (a seen space, and a stopping distance beyond d:
     an obstacle that shows up nearer is never nearer than d before the vehicle has stopped),
     else None."""
-    if seen is None or _stopping_m(speed, motion, union) <= d:
+    if seen is None or not speed_limit.applies(speed, motion, union, d):
         return None
     return _seen_margin(seen, position, motion, headings, speed, union, d)
 
@@ -392,9 +398,9 @@ def _seen_margin(seen: SeenSpace, position: np.ndarray, motion: Motion, headings
     """(J,) how far each command, flown until a new obstacle would enter the decision and then
     braked, stays beyond d from space never seen (less what it lacks already here)."""
     rolled = fly_out(position, motion, headings, np.full(len(headings), speed),
-                     union.perception_delay_s, union.fov_rad)
-    need = d - seen.cell_m          # the grid's resolution: straight ahead at the camera's
-    now = float(seen.margin(position[None, :])[0]) - need       # speed cap must pass
+                     speed_limit.latency_s(motion, union), union.fov_rad)
+    need = speed_limit.seen_need_m(union, d, seen.cell_m)   # the grid's resolution
+    now = float(seen.margin(position[None, :])[0]) - need
     return seen.margin(rolled.positions).min(axis=1) - need - min(now, 0.0)
 
 
