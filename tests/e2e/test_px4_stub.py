@@ -37,6 +37,10 @@ def test_the_paper_leg_with_the_operator_switching_to_offboard(tmp_path):
     assert run["reached_goal"] and run["min_clearance_m"] >= 9.5 and not run["collided"]
     assert flight["setpoints_while_landed"] == 0
     names = [name for _, name, armed in flight["modes"] if armed]
+    # armed in the mode it stood in (POSCTL), as PX4 arms, until NAV_TAKEOFF switches: whether a
+    # heartbeat shows that moment depends on when the stub's heartbeat falls (seen once in CI-like
+    # full runs)
+    names = names[1:] if names and names[0] == "POSCTL" else names
     assert names[:3] == ["AUTO.TAKEOFF", "AUTO.LOITER", "OFFBOARD"]
     assert flight["takeoff_target_amsl_m"] == pytest.approx(flight["home_amsl_m"] + 10.0)
     assert flight["service_offboard"]["requests"] == 0          # the operator's switch only
