@@ -76,6 +76,8 @@ STREAMABLE = tuple(ONBOARD_RATES_HZ)
 class Px4Streams(streams.StreamScheduler):
     """The stub's scheduler with PX4's onboard defaults instead of ArduPilot's SRn_ streams."""
 
+    streamable = STREAMABLE
+
     def default_interval_s(self, msg_id: int) -> float | None:
         rate = ONBOARD_RATES_HZ.get(msg_id)
         return None if rate is None else 1.0 / rate
@@ -97,20 +99,6 @@ class Px4Streams(streams.StreamScheduler):
 
     def request_data_stream(self, stream_id: int, rate_hz: int, start: bool) -> bool:
         return False               # PX4 ignores REQUEST_DATA_STREAM (deprecated)
-
-    def due(self, t_s: float) -> list[int]:
-        out = []
-        for msg_id in STREAMABLE:
-            interval = self.interval_s(msg_id)
-            if interval is None:
-                self._next_due_s.pop(msg_id, None)
-                continue
-            next_due = self._next_due_s.get(msg_id, t_s)
-            if t_s + 1e-9 >= next_due:
-                out.append(msg_id)
-                next_due += interval
-                self._next_due_s[msg_id] = next_due if next_due > t_s else t_s + interval
-        return out
 
 
 class Px4Params(ParamTable):

@@ -62,6 +62,8 @@ _DISABLED = -1.0
 class StreamScheduler:
     """Decides which periodic messages are due at a simulated time."""
 
+    streamable: tuple[int, ...] = STREAMABLE      # the messages it may send, in sending order
+
     def __init__(self, params: ParamTable) -> None:
         self._params = params
         self._override_s: dict[int, float] = {}   # msg id -> interval s, or _DISABLED
@@ -152,7 +154,7 @@ class StreamScheduler:
     def due(self, t_s: float) -> list[int]:
         """Message ids due at simulated time t_s; advances their next-due times."""
         out = []
-        for msg_id in STREAMABLE:
+        for msg_id in self.streamable:
             interval = self.interval_s(msg_id)
             if interval is None:
                 self._next_due_s.pop(msg_id, None)
