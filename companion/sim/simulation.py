@@ -98,7 +98,8 @@ def vertical_params(scenario: Scenario) -> VerticalParams | None:
         cruise_altitude_m=scenario.world.start.alt_m,
         max_vertical_speed_mps=scenario.vehicle.max_vertical_speed_mps,
         min_altitude_m=avoidance.min_altitude_m, max_altitude_m=avoidance.max_altitude_m,
-        cruise_speed_mps=scenario.vehicle.speed_mps, reach_m=scenario.sensor.max_range_m)
+        cruise_speed_mps=scenario.vehicle.speed_mps, reach_m=scenario.sensor.max_range_m,
+        max_accel_mps2=scenario.vehicle.max_accel_mps2, barrier_cost=True)
 
 
 def is_3d(scenario: Scenario) -> bool:
@@ -201,9 +202,10 @@ def with_speed(scenario: Scenario, speed_mps: float | None) -> Scenario:
 
 
 def run_once(scenario: Scenario, seed: int, strategy: str | None = None,
-             depth_sink=None) -> RunOutcome:
+             depth_sink=None, plan_sink=None) -> RunOutcome:
     """Fly one seeded run of the scenario in-process. ``depth_sink(frames)``: sees every depth
-    frame rendered (sensor.form depth)."""
+    frame rendered (sensor.form depth); ``plan_sink(t_s, choice, truth)``: every decision's
+    vertical choice (avoidance.vertical; None in 2D) and the truth after it."""
     truth = TruthWorld(scenario, np.random.default_rng(seed),
                        np.random.default_rng([seed, VERTICAL_STREAM]),
                        np.random.default_rng([seed, DEPTH_STREAM]), depth_sink)
@@ -250,6 +252,8 @@ def run_once(scenario: Scenario, seed: int, strategy: str | None = None,
         _observe_depth(nav, depth, truth, motion)
     for step in range(1, max_steps + 1):
         command, change = nav.decide(truth.t_s)
+        if plan_sink is not None:
+            plan_sink(truth.t_s, nav.vertical_choice, truth)
         if change is not None and change.landmark_index is not None:
             urgent_events += 1
         health_s[nav.health.state] += dt

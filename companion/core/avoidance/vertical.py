@@ -29,6 +29,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from companion.core.avoidance.climb_time import STOP_SPEED_MPS, altitude_time_s, fitting_speed_mps
+
 BIG_COST_M = 1e4        # a hold or an escape: worse than any detour or climb
 
 
@@ -49,6 +51,12 @@ class VerticalParams:
     hold_band_m: float = 0.3            # within this of the plan's altitude (< margin_m / 2): no climb (the
                                         # autopilot holds its altitude; the reported one is noisy)
     climb_weight: float = 1.0           # a metre up or down costs this many metres along
+    # Slowing so that a climb fits (core/avoidance/climb_time.py): the vehicle's acceleration
+    # (None: no slowed plans), and what a second of delay costs, in metres along
+    max_accel_mps2: float | None = None
+    delay_cost_m_per_s: float = 1.0
+    barrier_cost: bool = False          # a plan's detour counts the mapped barriers it flies
+                                        # round (core/avoidance/barrier.py), not only its reach
 
 
 @dataclass(frozen=True)
@@ -66,9 +74,11 @@ UNBOUNDED = Extent(None)
 
 @dataclass(frozen=True)
 class Plan:
-    kind: str                       # 'level' | 'over' | 'under'
+    kind: str                       # 'level' | 'over' | 'under' | 'over-slow' | 'under-slow'
     altitude_m: float
     skip: frozenset = field(default_factory=frozenset)     # guidance rows flown over or under
+    speed_mps: float | None = None  # a slowed plan's cap on the horizontal speed (None: none)
+    delay_s: float = 0.0            # ... and the time it loses to the climb (beyond the cruise's)
 
 
 @dataclass(frozen=True)
@@ -113,12 +123,59 @@ def over_altitude_m(extent: Extent, params: VerticalParams) -> float | None:
         + params.top_sigmas * extent.top_sigma_m
 
 
+def _need_m(kind: str, extent: Extent, params: VerticalParams) -> float | None:
+    """The altitude at which clears() passes over (at or above) or under (at or below) it."""
+    slack = 0.5 * params.margin_m
+    if kind == "over":
+        return None if extent.top_m is None else \
+            extent.top_m + params.safety_distance_m + slack + params.top_sigmas * extent.top_sigma_m
+    return extent.bottom_m - params.safety_distance_m - slack \
+        if extent.bottom_seen and extent.bottom_m > 0.0 else None
+
+
+def slowed(kind: str, target_m: float, skip: frozenset, near: list[int], gaps: np.ndarray,
+           alt_m: float, extents: list[Extent], params: VerticalParams,
+           speed_now_mps: float) -> Plan | None:
+    """The plan toward ``target_m`` flown slower (or stopped) so that the climb ('over') or the
+    descent ('under') clears the obstacles ``near`` it does not clear at the cruise speed
+    (core/avoidance/climb_time.py); None if slowing clears none of them. Its cap: the highest
+    speed clearing every such obstacle that slowing can clear; its delay: the longest wait, over
+    those obstacles, beyond the time the cruise speed takes to them."""
+    d = params.safety_distance_m
+    error = abs(target_m - alt_m)
+    speeds, waits = {}, {}
+    for i in range(len(extents)):
+        need = _need_m(kind, extents[i], params)
+        if i in skip or need is None or (need > target_m + 1e-9 if kind == "over"
+                                         else need < target_m - 1e-9):
+            continue
+        time_s = altitude_time_s(error, abs(target_m - need), params.max_vertical_speed_mps,
+                                 params.altitude_gain_per_s, params.climb_lag_s)
+        way = float(gaps[i]) - d
+        speed = fitting_speed_mps(way, time_s, speed_now_mps, params.max_accel_mps2)
+        if speed is not None:
+            speeds[i] = speed
+            waits[i] = max(0.0, time_s - max(way, 0.0) / max(params.cruise_speed_mps, 1e-6))
+    capped = [speeds[i] for i in near if i in speeds]
+    if not capped or min(capped) >= params.cruise_speed_mps:
+        return None
+    cap = min(capped)
+    added = frozenset(i for i, speed in speeds.items() if speed >= cap)
+    if not added:
+        return None
+    return Plan(f"{kind}-slow", target_m, skip | added,
+                0.0 if cap < STOP_SPEED_MPS else cap, max(waits[i] for i in added))
+
+
 def plans(position_ne_m: np.ndarray, alt_m: float, obstacles_ne_m: np.ndarray,
           extents: list[Extent], params: VerticalParams,
-          ahead_ne: np.ndarray | None = None) -> list[Plan]:
+          ahead_ne: np.ndarray | None = None, speed_now_mps: float | None = None) -> list[Plan]:
     """The altitude plans to score (see the module's docstring); ``extents`` by guidance row.
     ``ahead_ne`` (a unit vector, the goal's direction): only obstacles not yet passed along it
-    are climbed over or sunk under (one passed is left behind at the cruise altitude)."""
+    are climbed over or sunk under (one passed is left behind at the cruise altitude).
+    With ``params.max_accel_mps2`` and ``speed_now_mps`` (the vehicle's horizontal speed), an
+    over or under plan that does not clear everything in reach at the cruise speed is offered
+    slowed too (``slowed``)."""
     n = len(extents)
     rel = np.asarray(obstacles_ne_m, dtype=float).reshape(-1, 2) - position_ne_m
     gaps = np.hypot(*rel.T) if n else np.zeros(0)
@@ -144,11 +201,16 @@ def plans(position_ne_m: np.ndarray, alt_m: float, obstacles_ne_m: np.ndarray,
     level_skip = out[0].skip
     tops = [over_altitude_m(extents[i], params) for i in near if i not in level_skip]
     tops = [t for t in tops if t is not None and level_alt < t <= params.max_altitude_m]
+    slowing = params.max_accel_mps2 is not None and speed_now_mps is not None
     if tops:
         target = max(tops)
         plan = Plan("over", target, skipped(target))
         if plan.skip != level_skip:
             out.append(plan)
+        slow = slowed("over", target, plan.skip, near, gaps, alt_m, extents, params,
+                      speed_now_mps) if slowing else None
+        if slow is not None:
+            out.append(slow)
     unders = [extents[i].bottom_m - d - params.margin_m for i in near if i not in level_skip
               and extents[i].bottom_seen and extents[i].bottom_m > 0.0]
     unders = [u for u in unders if params.min_altitude_m <= u < level_alt]
@@ -157,6 +219,10 @@ def plans(position_ne_m: np.ndarray, alt_m: float, obstacles_ne_m: np.ndarray,
         plan = Plan("under", target, skipped(target))
         if plan.skip != level_skip:
             out.append(plan)
+        slow = slowed("under", target, plan.skip, near, gaps, alt_m, extents, params,
+                      speed_now_mps) if slowing else None
+        if slow is not None:
+            out.append(slow)
     return out
 
 
@@ -177,7 +243,8 @@ def detour_m(position_ne_m: np.ndarray, goal_ne_m: np.ndarray, heading_rad: floa
 def plan_cost_m(plan: Plan, alt_m: float, detour: float, hold: bool,
                 params: VerticalParams) -> float:
     vertical = abs(plan.altitude_m - alt_m) + abs(plan.altitude_m - params.cruise_altitude_m)
-    return detour + params.climb_weight * vertical + (BIG_COST_M if hold else 0.0)
+    return detour + params.climb_weight * vertical + (BIG_COST_M if hold else 0.0) \
+        + params.delay_cost_m_per_s * plan.delay_s
 
 
 def choose(scored: list[tuple[Plan, float]], last_kind: str | None, alt_m: float,

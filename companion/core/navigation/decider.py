@@ -14,6 +14,7 @@ import numpy as np
 
 from companion.core.avoidance import vertical as vertical3d
 from companion.core.avoidance.arc import Motion, VehicleLimits
+from companion.core.avoidance.barrier import barrier_detour_m
 from companion.core.avoidance.commitment import Commitment
 from companion.core.avoidance.flank_scan import FlankScan, FlankScanParams
 from companion.core.avoidance.guidance import (GuidanceCommand, GuidanceInputs, GuidanceParams,
@@ -249,14 +250,23 @@ class Decider:
         alt = float(self.estimator.altitude_m)
         to_goal = self.goal - pose[:2]
         ahead = to_goal / max(float(np.hypot(*to_goal)), 1e-9)
+        speed_now, course = self.estimator.velocity_now or (params.cruise_speed_mps, 0.0)
+        if speed_now < LOOK_COURSE_MIN_SPEED_MPS:
+            course = float(pose[2])
         scored, results = [], []
-        for plan in vertical3d.plans(pose[:2], alt, obstacles, extents, params, ahead):
+        for plan in vertical3d.plans(pose[:2], alt, obstacles, extents, params, ahead, speed_now):
             command, movers, commit = self._decide_2d(pose, t_s, plan.skip)
+            if plan.speed_mps is not None and command.speed_mps > plan.speed_mps:
+                command = replace(command, speed_mps=plan.speed_mps)
             rows = [i for i in range(len(obstacles)) if i not in plan.skip
                     and float(np.hypot(*(obstacles[i] - pose[:2]))) <= params.reach_m]
             hold = command.mode in ("hold", "stop", "escape") or command.mode.startswith("hold")
             detour = vertical3d.detour_m(pose[:2], self.goal, command.heading_rad, obstacles,
                                          rows) + (0.0 if command.mode != "slow" else 20.0)
+            if params.barrier_cost:     # round the side the vehicle flies toward now
+                unskipped = [i for i in range(len(obstacles)) if i not in plan.skip]
+                detour = max(detour, barrier_detour_m(pose[:2], self.goal, course, obstacles,
+                                                      unskipped, params.safety_distance_m))
             scored.append((plan, vertical3d.plan_cost_m(plan, alt, detour, hold, params)))
             results.append((command, movers, commit, plan.skip))
         last = self.vertical_choice.plan.kind if self.vertical_choice is not None else None
