@@ -50,7 +50,9 @@ class ServiceHeights:
             max_vertical_speed_mps=config.safety.max_vertical_speed_mps,
             min_altitude_m=avoidance.min_altitude_m, max_altitude_m=avoidance.max_altitude_m,
             cruise_speed_mps=config.commanding.cruise_speed_mps,
-            reach_m=config.estimator.sensor_max_range_m or DEFAULT_REACH_M) if self.on else None
+            reach_m=config.estimator.sensor_max_range_m or DEFAULT_REACH_M,
+            max_accel_mps2=config.commanding.max_accel_mps2, barrier_cost=True) \
+            if self.on else None
         self.merged_points = 0
 
     def vertical_params(self, cruise_up_m: float | None) -> VerticalParams | None:

@@ -7,7 +7,11 @@ obstacles it must fly round, by offering it altitude plans:
   obstacle it is passing over (it never sinks onto one);
 - ``over``: climbing, at the vertical speed limit, to just clear (d plus a margin plus the top's
   uncertainty) every obstacle in reach whose top is known and below the altitude ceiling;
-- ``under``: sinking below an overhang (a bridge deck) whose bottom is known, above the floor.
+- ``under``: sinking below an overhang (a bridge deck) whose bottom is known, above the floor;
+- ``over-slow``, ``under-slow`` (with ``max_accel_mps2``, issue 46): the same altitude, the
+  horizontal speed capped (or stopped) so that the climb or descent clears, before the vehicle is
+  within d of them, the obstacles in reach it does not clear at the cruise speed
+  (core/avoidance/climb_time.py); it costs the time it loses, ``delay_cost_m_per_s``.
 
 Under a plan, an obstacle is left out of the horizontal law if the planned altitude profile (from
 the altitude now toward the plan's at the vertical speed limit) keeps the vehicle out of its
@@ -16,8 +20,9 @@ the axis, flying straight at it at the cruise speed: the worst direction, so wha
 horizontal law then chooses, the 3D path clears the obstacles left out by d (vertically).
 
 Each plan's horizontal command is scored by the detour it implies (via the point abeam the
-farthest obstacle it flies round) plus the vertical way still to fly (up to the plan's altitude,
-and back down to the cruise altitude), metre for metre; the least wins, the plan flown before
+farthest obstacle it flies round; with ``barrier_cost``, at least the way round every mapped
+barrier it flies round, core/avoidance/barrier.py) plus the vertical way still to fly (up to the
+plan's altitude, and back down to the cruise altitude), metre for metre; the least wins, the plan flown before
 keeping it unless another saves ``switch_margin_m``. A vehicle below the minimum altitude (taking
 off, landing) flies over nothing. The vertical command: a climb rate toward the chosen
 altitude, within the vertical speed limit and [min_altitude_m, max_altitude_m].
