@@ -6,7 +6,7 @@ them (core/avoidance/cone3d.py's capped cylinder, from the centre as the 2D test
 
 The low wall (config/scenarios/lowwall.yaml) runs by default; the held-out kinds (not flown
 while the 3D planner was written): tall and short obstacles side by side, a bridge deck, an
-altitude ceiling below a wall's top, are marked slow."""
+altitude ceiling below a wall's top, are marked slow; so is issue 46's wide 9 m wall."""
 from __future__ import annotations
 
 import json
@@ -133,6 +133,23 @@ def test_held_out_a_ceiling_below_the_wall_s_top_goes_round(tmp_path):
     assert max(r["up_m"] for r in flying) <= 15.0 + TOLERANCE_M
     at_wall = [r for r in flying if abs(r["north_m"] - 100.0) <= 2.0]
     assert all(abs(r["east_m"]) > 30.0 for r in at_wall)          # round its end
+
+
+@pytest.mark.slow
+def test_a_wide_9m_wall_is_climbed_not_rounded(tmp_path):
+    """Issue 46: a wall 9 m high, 160 m wide (config/scenarios/widewall.yaml's): the service
+    slows so that the climb fits and flies over it, shorter than round its end (269 m)."""
+    wall = posts(100.0, -80.0, 80.0, 1, height_m=9.0)
+    flying, _, result = fly(tmp_path, world(wall))
+    assert result["arrived"]
+    assert min_clearance_m(flying) >= D_M - TOLERANCE_M
+    at_wall = [r for r in flying if abs(r["north_m"] - 100.0) <= 2.0]
+    assert at_wall and all(r["up_m"] >= 9.0 + D_M - TOLERANCE_M for r in at_wall)   # over it
+    assert all(abs(r["east_m"]) < 80.0 for r in at_wall)
+    path = sum(math.hypot(b["north_m"] - a["north_m"], b["east_m"] - a["east_m"])
+               for a, b in zip(flying, flying[1:]))
+    assert path < 190.0
+    assert abs(flying[-1]["up_m"] - CRUISE_M) < 1.5                                # back down
 
 
 GROUND = REPO / "config" / "scenarios" / "ground.yaml"
