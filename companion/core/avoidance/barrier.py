@@ -8,8 +8,9 @@ ahead of the vehicle. Flying round it on one side passes every one of its obstac
 at least d off: the way is at least the longest of the ways through each obstacle's point d
 beyond it on that side, over the obstacles ahead that the straight way passes on the other side
 or nearer than d (a lower bound on the way round the barrier's grown hull, exact for a straight
-wall across the way). The side is the one the command's heading takes; a heading still
-along the way to the goal (within ``ALONG_RAD``) takes the shorter side.
+wall across the way). The side is the one the heading given takes (the decider gives the
+vehicle's course: the side it is flying toward, whichever plan's command is scored); a heading
+still along the way to the goal (within ``ALONG_RAD``) takes the shorter side.
 
 What is not mapped is not counted: the barrier's ends are where the map's end (the cost grows as
 the camera sees more of it).
@@ -78,7 +79,7 @@ def barrier_detour_m(position_ne_m: np.ndarray, goal_ne_m: np.ndarray, heading_r
             # the obstacles ahead the straight way passes on the wrong side or within d
             bind = group[(along[group] > 0.0) & (side * lateral[group] + d_m > 0.0)]
             if not len(bind):
-                best = 0.0 + length
+                best = length
                 break
             via = pts[bind] + side * d_m * n
             way = np.hypot(*(via - pos).T) + np.hypot(*(goal - via).T)
