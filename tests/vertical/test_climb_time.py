@@ -118,3 +118,15 @@ def test_a_barrier_beside_the_way_or_already_rounded_costs_nothing():
     here = np.array([96.5, -41.0])
     heading = math.atan2(41.0, 83.5)
     assert barrier_detour_m(here, GOAL, heading, wide, list(range(len(wide))), 10.0) < 1.0
+
+
+def test_a_deck_too_near_to_sink_under_at_cruise_speed_is_offered_under_slowed():
+    # a deck 16-19 m up, 22 m ahead: under at 5 m needs ~4 s to sink, 20 m at 5 m/s; 12 m left
+    rows = wall(22.0, -12.0, 12.0)
+    deck = [v3.Extent(19.0, 0.03, bottom_m=16.0, bottom_seen=True)] * len(rows)
+    plans = {p.kind: p for p in v3.plans(HERE, 10.0, rows, deck, PARAMS, np.array([1.0, 0.0]),
+                                         5.0)}
+    assert "under" not in plans or len(plans["under"].skip) < len(rows)
+    slow = plans["under-slow"]
+    assert slow.altitude_m == pytest.approx(16.0 - 10.0 - 1.0)
+    assert slow.skip == frozenset(range(len(rows))) and 0.0 < slow.speed_mps < 5.0
