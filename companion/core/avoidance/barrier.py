@@ -49,6 +49,21 @@ def barriers(points_ne_m: np.ndarray, gap_m: float) -> list[np.ndarray]:
     return groups
 
 
+def blocking_rows(position_ne_m: np.ndarray, obstacles_ne_m: np.ndarray, ahead_ne: np.ndarray,
+                  d_m: float) -> frozenset:
+    """The rows of every barrier (obstacles joined less than 2 d apart) one of whose obstacles is
+    ahead along the unit vector ``ahead_ne`` and within d of that way: what stands in it."""
+    pts = np.asarray(obstacles_ne_m, dtype=float).reshape(-1, 2)
+    rel = pts - np.asarray(position_ne_m, dtype=float)
+    along = rel @ ahead_ne
+    lateral = rel @ np.array([-ahead_ne[1], ahead_ne[0]])
+    out: set = set()
+    for group in barriers(pts, 2.0 * d_m):
+        if np.any((along[group] > 0.0) & (np.abs(lateral[group]) < d_m)):
+            out.update(int(i) for i in group)
+    return frozenset(out)
+
+
 def barrier_detour_m(position_ne_m: np.ndarray, goal_ne_m: np.ndarray, heading_rad: float,
                      obstacles_ne_m: np.ndarray, rows: list[int], d_m: float) -> float:
     """The extra way, over the straight line to the goal, of flying round every blocking barrier

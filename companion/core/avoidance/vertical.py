@@ -34,6 +34,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from companion.core.avoidance.barrier import blocking_rows
 from companion.core.avoidance.climb_time import STOP_SPEED_MPS, altitude_time_s, fitting_speed_mps
 
 BIG_COST_M = 1e4        # a hold or an escape: worse than any detour or climb
@@ -142,10 +143,10 @@ def slowed(kind: str, target_m: float, skip: frozenset, near: list[int], gaps: n
            alt_m: float, extents: list[Extent], params: VerticalParams,
            speed_now_mps: float) -> Plan | None:
     """The plan toward ``target_m`` flown slower (or stopped) so that the climb ('over') or the
-    descent ('under') clears the obstacles ``near`` it does not clear at the cruise speed
-    (core/avoidance/climb_time.py); None if slowing clears none of them. Its cap: the highest
-    speed clearing every such obstacle that slowing can clear; its delay: the longest wait, over
-    those obstacles, beyond the time the cruise speed takes to them."""
+    descent ('under') clears the obstacles ``near`` (those in the way) it does not clear at the
+    cruise speed (core/avoidance/climb_time.py); None if slowing clears none of them. Its cap:
+    the highest speed clearing every such obstacle that slowing can clear; its delay: the longest
+    wait, over those obstacles, beyond the time the cruise speed takes to them."""
     d = params.safety_distance_m
     error = abs(target_m - alt_m)
     speeds, waits = {}, {}
@@ -180,7 +181,8 @@ def plans(position_ne_m: np.ndarray, alt_m: float, obstacles_ne_m: np.ndarray,
     are climbed over or sunk under (one passed is left behind at the cruise altitude).
     With ``params.max_accel_mps2`` and ``speed_now_mps`` (the vehicle's horizontal speed), an
     over or under plan that does not clear everything in reach at the cruise speed is offered
-    slowed too (``slowed``)."""
+    slowed too (``slowed``), for the barriers standing in the way ahead (barrier.blocking_rows;
+    all in reach without ``ahead_ne``)."""
     n = len(extents)
     rel = np.asarray(obstacles_ne_m, dtype=float).reshape(-1, 2) - position_ne_m
     gaps = np.hypot(*rel.T) if n else np.zeros(0)
@@ -207,12 +209,18 @@ def plans(position_ne_m: np.ndarray, alt_m: float, obstacles_ne_m: np.ndarray,
     tops = [over_altitude_m(extents[i], params) for i in near if i not in level_skip]
     tops = [t for t in tops if t is not None and level_alt < t <= params.max_altitude_m]
     slowing = params.max_accel_mps2 is not None and speed_now_mps is not None
+    if slowing and ahead_ne is not None:
+        # slowed only for what stands in the way ahead: a barrier across the way to the goal
+        in_way = blocking_rows(position_ne_m, obstacles_ne_m, ahead_ne, d)
+        in_way = [i for i in near if i in in_way]
+    else:
+        in_way = near
     if tops:
         target = max(tops)
         plan = Plan("over", target, skipped(target))
         if plan.skip != level_skip:
             out.append(plan)
-        slow = slowed("over", target, plan.skip, near, gaps, alt_m, extents, params,
+        slow = slowed("over", target, plan.skip, in_way, gaps, alt_m, extents, params,
                       speed_now_mps) if slowing else None
         if slow is not None:
             out.append(slow)
@@ -224,7 +232,7 @@ def plans(position_ne_m: np.ndarray, alt_m: float, obstacles_ne_m: np.ndarray,
         plan = Plan("under", target, skipped(target))
         if plan.skip != level_skip:
             out.append(plan)
-        slow = slowed("under", target, plan.skip, near, gaps, alt_m, extents, params,
+        slow = slowed("under", target, plan.skip, in_way, gaps, alt_m, extents, params,
                       speed_now_mps) if slowing else None
         if slow is not None:
             out.append(slow)
