@@ -105,10 +105,15 @@ def demo_config(scenario: Scenario, base_path: str | Path = "config/companion.ya
 
 
 def scenario_perception(scenario: Scenario):
-    """The scenario's perception section, its camera's vertical view filled in from its sensor."""
+    """The scenario's perception section, its sensor's vertical view filled in; for the depth
+    form its cameras' rate, mounts and stereo figures (the service reads the frames: --depth)."""
     perception = scenario.perception
     if perception.camera_vfov_deg is None:
         perception = dataclasses.replace(perception, camera_vfov_deg=scenario.sensor.vfov_deg)
+    if (sensor := scenario.sensor).form == "depth":
+        perception = dataclasses.replace(perception, depth=dataclasses.replace(
+            perception.depth, rate_hz=sensor.depth.rate_hz, cameras=sensor.cameras,
+            baseline_m=sensor.depth.baseline_m, subpixel=sensor.depth.subpixel))
     return perception
 
 
@@ -153,14 +158,16 @@ async def spawn(name: str, args: list[str], workdir: Path, stdout=None) -> Child
     return Child(name, proc, stderr_path)
 
 
-async def wait_for_ready(stub: Child) -> tuple[int, int]:
-    """The stub's READY line -> (tcp port, udp port)."""
+async def wait_for_ready(stub: Child, addresses: dict | None = None) -> tuple[int, int]:
+    """The stub's READY line -> (tcp port, udp port); ``addresses`` gets all it names."""
     try:
         async with asyncio.timeout(READY_TIMEOUT_S):
             while line := await stub.proc.stdout.readline():
                 text = line.decode(errors="replace").strip()
                 if text.startswith("SITL_STUB READY"):
                     ports = dict(part.split("=", 1) for part in text.split()[2:])
+                    if addresses is not None:
+                        addresses.update(ports)
                     return int(ports["tcp"].rpartition(":")[2]), int(ports["udp"].rpartition(":")[2])
     except TimeoutError:
         raise DemoError(f"sitl-stub not ready after {READY_TIMEOUT_S:.0f} s:\n"
@@ -329,8 +336,7 @@ async def run_demo(scenario_path: Path, scenario: Scenario, files: DemoFiles, sp
                    stub_autopilot: str = "ardupilot", px4_offboard: str | None = None,
                    px4_station=None) -> tuple[dict, dict, list[dict], list]:
     """Fly the scenario; returns (the companion's report, its config, the truth records, the
-    ground station's (wall s, vehicle s) samples).
-    With ``signing_key_file``, the stub, the companion and the ground station all sign.
+    ground station's (wall s, vehicle s) samples). A depth scenario's frames: --depth-tcp. With ``signing_key_file``, the stub, the companion and the ground station all sign.
     ``lockstep``: stub and companion in lock-step (module docstring); else the stub free-runs at
     ``speedup`` on the wall clock. ``view_feed``: HOST:PORT the companion sends its live state to
     (``companion view``). ``lockstep_overlap``: the stub steps on the companion's answer to the
@@ -360,12 +366,16 @@ async def run_demo(scenario_path: Path, scenario: Scenario, files: DemoFiles, sp
             stub_args += ["--signing-key", str(signing_key_file)]
         if lockstep:
             stub_args += ["--lockstep"] + (["--lockstep-overlap"] if lockstep_overlap else [])
+        if scenario.sensor.form == "depth":       # the frames beside the MAVLink link
+            stub_args += ["--depth-tcp", "127.0.0.1:0"]
         stub = await spawn("sitl-stub", stub_args, files.workdir, stdout=asyncio.subprocess.PIPE)
         children.append(stub)
-        tcp_port, udp_port = await wait_for_ready(stub)
+        tcp_port, udp_port = await wait_for_ready(stub, addresses := {})
         companion_args = [sys.executable, "-m", "companion", "-v", "run",
                           "--connect", f"udpout:127.0.0.1:{udp_port}",
                           "--config", str(files.config), "--report", str(files.report)]
+        if "depth" in addresses:
+            companion_args += ["--depth", f"stub:{addresses['depth']}"]
         if files.tlog:
             companion_args += ["--tlog", str(files.tlog)]
         if lockstep:
