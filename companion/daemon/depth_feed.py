@@ -94,6 +94,9 @@ class DepthFeed:
         self.attitude_seen = asyncio.Event()
         self.latencies_s: deque[float] = deque(maxlen=LATENCY_KEPT)
         self.perceive_s: deque[float] = deque(maxlen=LATENCY_KEPT)
+        # (capture s on the vehicle's clock, Unix s when absorbed, observations): for
+        # benchmarks/depth_service.py's capture -> setpoint, with the tlog's setpoints
+        self.absorbed: deque[tuple[float, float, int]] = deque(maxlen=LATENCY_KEPT)
         self.wait_timeouts = 0
         self._stop = threading.Event()
         self._executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="depth-perceive")
@@ -179,6 +182,7 @@ class DepthFeed:
         for output in out:
             await self._dispatch(output)
         self.latencies_s.append(time.monotonic() - read_s)
+        self.absorbed.append((job.t_capture_s, time.time(), len(percept.observations)))
 
     # ------------------------------------------------------------ lock-step
     async def settle(self, t_s: float) -> None:
@@ -216,4 +220,5 @@ class DepthFeed:
             "read_to_absorbed_ms": {"p50": pct(self.latencies_s, 0.5),
                                     "p99": pct(self.latencies_s, 0.99),
                                     "n": len(self.latencies_s)},
-            "perceive_ms": {"p50": pct(self.perceive_s, 0.5), "p99": pct(self.perceive_s, 0.99)}}}
+            "perceive_ms": {"p50": pct(self.perceive_s, 0.5), "p99": pct(self.perceive_s, 0.99)},
+            "absorbed": [list(row) for row in self.absorbed]}}
