@@ -12,7 +12,8 @@ them in its reader thread, perceives them in its executor and flies by them. Fig
 
 - capture -> setpoint: for each frame that gave an observation, from its capture (its
   time_boot_ms, the stub's clock, tied to the companion's Unix clock by the smallest receipt
-  minus time_boot_ms of the flight's MAVLink, as benchmarks/cpu_quota.py does) to the first
+  minus time_boot_ms of the MAVLink messages within TIE_WINDOW_S of the capture: cpu_quota.py's
+  tie, taken locally because a loaded stub falls behind the wall clock and rebases) to the first
   SET_POSITION_TARGET_LOCAL_NED the companion sent after the frame's observations were in the
   estimator (the report's ``depth_feed.absorbed``, the tlog's sent records). It includes the
   stub's own rendering of the frame after its capture time, the socket, the wait in the slot,
@@ -43,23 +44,33 @@ from companion.mavlink.tlog import TlogReader
 
 REPO = Path(__file__).resolve().parents[1]
 CPU_TARGET = 0.25
+TIE_WINDOW_S = 1.0
 
 
-def setpoints_and_offset(tlog: Path) -> tuple[np.ndarray, float]:
-    """(Unix s of every setpoint we sent, sorted), and Unix s - stub s (the fastest delivery)."""
-    sent, offset = [], None
+def setpoints_and_ties(tlog: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(Unix s of every setpoint we sent, sorted), and for every message of the stub with a
+    time_boot_ms: its stub s and its receipt minus that (Unix s - stub s), by stub s."""
+    sent, boot, gap = [], [], []
     for record in TlogReader(tlog):
         t, msg = record.t_us / 1e6, record.msg
         if msg.get_srcComponent() == OUR_COMPONENT:
             if msg.get_type() == "SET_POSITION_TARGET_LOCAL_NED":
                 sent.append(t)
         elif hasattr(msg, "time_boot_ms"):
-            gap = t - msg.time_boot_ms / 1000.0
-            offset = gap if offset is None else min(offset, gap)
-    return np.sort(np.array(sent)), offset
+            boot.append(msg.time_boot_ms / 1000.0)
+            gap.append(t - msg.time_boot_ms / 1000.0)
+    order = np.argsort(boot, kind="stable")
+    return np.sort(np.array(sent)), np.array(boot)[order], np.array(gap)[order]
 
 
-def capture_to_setpoint_s(absorbed: list, sent: np.ndarray, offset: float) -> np.ndarray:
+def offset_at(capture_s: float, boot: np.ndarray, gap: np.ndarray) -> float:
+    """Unix s - stub s near ``capture_s``: the fastest delivery within TIE_WINDOW_S."""
+    lo, hi = np.searchsorted(boot, [capture_s - TIE_WINDOW_S, capture_s + TIE_WINDOW_S])
+    return float(gap[lo:hi].min()) if hi > lo else float(gap.min())
+
+
+def capture_to_setpoint_s(absorbed: list, sent: np.ndarray, boot: np.ndarray,
+                          gap: np.ndarray) -> np.ndarray:
     """Per frame with observations, after the first setpoint: capture -> the next setpoint."""
     if len(sent) == 0:
         return np.zeros(0)
@@ -69,7 +80,7 @@ def capture_to_setpoint_s(absorbed: list, sent: np.ndarray, offset: float) -> np
             continue
         i = int(np.searchsorted(sent, absorbed_unix_s))
         if i < len(sent):
-            out.append(sent[i] - (capture_s + offset))
+            out.append(sent[i] - (capture_s + offset_at(capture_s, boot, gap)))
     return np.array(out)
 
 
@@ -96,15 +107,15 @@ def fly(scenario: str, workdir: Path, seed: int, throttle) -> dict:
                   flight_s=run["time_s"])
     report = json.loads((keep / "companion-report.json").read_text())
     feed = report["depth_feed"]
-    sent, offset = setpoints_and_offset(tlog)
-    latency = capture_to_setpoint_s(feed["absorbed"], sent, offset)
+    sent, boot, gap = setpoints_and_ties(tlog)
+    latency = capture_to_setpoint_s(feed["absorbed"], sent, boot, gap)
     result.update(capture_to_setpoint=percentiles_ms(latency),
                   read_to_absorbed_ms=feed["read_to_absorbed_ms"], perceive_ms=feed["perceive_ms"],
                   frames_received=feed["received"], frames_dropped=feed["dropped"],
                   frames_perceived=report.get("depth", {}).get("frames"))
     armed = [r for r in read_truth(keep / "truth.jsonl") if r["armed"]]
     if watch.samples and armed:
-        start = armed[0]["t_s"] + offset
+        start = armed[0]["t_s"] + offset_at(armed[0]["t_s"], boot, gap)
         end = start + result["flight_s"]
         picked = [(t, c) for t, c in watch.samples if start <= t <= end]
         if len(picked) >= 2:

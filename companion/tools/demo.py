@@ -11,6 +11,9 @@ the same whatever the machine's load. The stub holds t = 0 until the companion's
 the ground station sets the streams the companion will ask for, GUIDED and arms in that hold, and
 only then starts the companion, so every run starts from the same instant. Scored from the
 companion's report at arrival (later ones depend on when the children were stopped).
+
+(over 400 lines: the processes' start, the ground station's commands and the stop are one
+sequence, read together.)
 """
 from __future__ import annotations
 
@@ -33,7 +36,7 @@ from companion.config.service import CompanionConfig, config_to_dict, GoalConfig
 from companion.errors import CompanionError
 from companion.daemon.streams import STREAMS
 from companion.sim.simulation import perception_delay_s
-from companion.tools import px4_gcs
+from companion.tools import demo_depth, px4_gcs
 from companion.tools.demo_scoring import read_report, read_truth, wait_until_settled
 
 log = logging.getLogger(__name__)
@@ -334,7 +337,8 @@ async def run_demo(scenario_path: Path, scenario: Scenario, files: DemoFiles, sp
                    lockstep_overlap: bool = False,
                    base_config: str | Path = "config/companion.yaml",
                    stub_autopilot: str = "ardupilot", px4_offboard: str | None = None,
-                   px4_station=None) -> tuple[dict, dict, list[dict], list]:
+                   px4_station=None,
+                   depth_record: Path | None = None) -> tuple[dict, dict, list[dict], list]:
     """Fly the scenario; returns (the companion's report, its config, the truth records, the
     ground station's (wall s, vehicle s) samples). A depth scenario's frames: --depth-tcp. With ``signing_key_file``, the stub, the companion and the ground station all sign.
     ``lockstep``: stub and companion in lock-step (module docstring); else the stub free-runs at
@@ -352,6 +356,7 @@ async def run_demo(scenario_path: Path, scenario: Scenario, files: DemoFiles, sp
     for stale in (files.report, files.truth):     # a kept workdir's last run must not score
         stale.unlink(missing_ok=True)
     children: list[Child] = []
+    recorder = None           # --depth-record (companion/tools/demo_depth.py): stopped after
     try:
         stub_args = [sys.executable, "-m", "sitl_stub", "--scenario", str(scenario_path),
                      "--tcp", "127.0.0.1:0", "--udp", "127.0.0.1:0", "--speedup", str(speedup),
@@ -376,6 +381,9 @@ async def run_demo(scenario_path: Path, scenario: Scenario, files: DemoFiles, sp
                           "--config", str(files.config), "--report", str(files.report)]
         if "depth" in addresses:
             companion_args += ["--depth", f"stub:{addresses['depth']}"]
+            if depth_record is not None:
+                recorder = await demo_depth.start_recorder(spawn, addresses["depth"],
+                                                           depth_record, files.workdir, stub)
         if files.tlog:
             companion_args += ["--tlog", str(files.tlog)]
         if lockstep:
@@ -396,5 +404,7 @@ async def run_demo(scenario_path: Path, scenario: Scenario, files: DemoFiles, sp
         for child, code in zip(children, codes):
             if code not in (0, -signal.SIGTERM):
                 log.warning("%s exited with %s", child.name, code)
+        if recorder is not None and await demo_depth.finish_recorder(recorder) != 0:
+            log.warning("depth-record: %s", recorder.stderr_tail())
     final = report if lockstep else read_report(files.report) or report
     return final, config_to_dict(config), read_truth(files.truth), samples
