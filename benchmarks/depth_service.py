@@ -17,9 +17,12 @@ them in its reader thread, perceives them in its executor and flies by them. Fig
   SET_POSITION_TARGET_LOCAL_NED the companion sent after the frame's observations were in the
   estimator (the report's ``depth_feed.absorbed``, the tlog's sent records). It includes the
   stub's own rendering of the frame after its capture time, the socket, the wait in the slot,
-  the perception and the decision. From the first setpoint on (commanding).
+  the perception and the decision. From the first setpoint on (commanding). ``capture_to_read``:
+  its first part, to the frame read whole from the socket (the stub renders a frame at the first
+  physics step at or after its capture, 0 to 67 ms later at 15 Hz on 10 Hz steps, then sends it).
 - read -> absorbed: the service's own part (``depth_feed.read_to_absorbed_ms``: a frame read
-  whole from the socket -> its observations in the estimator and their decision sent).
+  whole from the socket -> its observations in the estimator and the decision on them made; the
+  setpoint goes to the socket next).
 - perceive: the executor's time per frame (queueing included).
 - CPU per second of flight: utime + stime of the ``companion run`` process (all its threads),
   sampled every 0.5 s, from arming to arrival (cpu_quota.py's DaemonWatch). Target: 0.25 of
@@ -70,18 +73,21 @@ def offset_at(capture_s: float, boot: np.ndarray, gap: np.ndarray) -> float:
 
 
 def capture_to_setpoint_s(absorbed: list, sent: np.ndarray, boot: np.ndarray,
-                          gap: np.ndarray) -> np.ndarray:
-    """Per frame with observations, after the first setpoint: capture -> the next setpoint."""
+                          gap: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per frame with observations, after the first setpoint: capture -> the next setpoint,
+    and capture -> read whole from the socket (the stub's rendering and the socket)."""
     if len(sent) == 0:
-        return np.zeros(0)
-    out = []
-    for capture_s, absorbed_unix_s, observations in absorbed:
+        return np.zeros(0), np.zeros(0)
+    total, read = [], []
+    for capture_s, absorbed_unix_s, observations, read_unix_s in absorbed:
         if observations <= 0 or absorbed_unix_s < sent[0]:
             continue
         i = int(np.searchsorted(sent, absorbed_unix_s))
         if i < len(sent):
-            out.append(sent[i] - (capture_s + offset_at(capture_s, boot, gap)))
-    return np.array(out)
+            captured_unix_s = capture_s + offset_at(capture_s, boot, gap)
+            total.append(sent[i] - captured_unix_s)
+            read.append(read_unix_s - captured_unix_s)
+    return np.array(total), np.array(read)
 
 
 def fly(scenario: str, workdir: Path, seed: int, throttle) -> dict:
@@ -108,8 +114,9 @@ def fly(scenario: str, workdir: Path, seed: int, throttle) -> dict:
     report = json.loads((keep / "companion-report.json").read_text())
     feed = report["depth_feed"]
     sent, boot, gap = setpoints_and_ties(tlog)
-    latency = capture_to_setpoint_s(feed["absorbed"], sent, boot, gap)
+    latency, to_read = capture_to_setpoint_s(feed["absorbed"], sent, boot, gap)
     result.update(capture_to_setpoint=percentiles_ms(latency),
+                  capture_to_read=percentiles_ms(to_read),
                   read_to_absorbed_ms=feed["read_to_absorbed_ms"], perceive_ms=feed["perceive_ms"],
                   frames_received=feed["received"], frames_dropped=feed["dropped"],
                   frames_perceived=report.get("depth", {}).get("frames"))

@@ -3,8 +3,10 @@ event loop, taken into the pipeline on it (companion/onboard/depth_intake.py).
 
 - A reader thread iterates the source (companion/depth/open.py: blocking reads and decoding)
   and hands each frame to the loop through a bounded slot (``FrameSlot``).
-- Live: a task takes the newest frame of each camera (an older one not yet taken is dropped and
-  counted), waits for the ATTITUDE of its capture if it has not come, and runs the perception
+- Live: a task takes the newest frames of each camera (at most LIVE_PER_CAMERA wait; a newer
+  one drops the oldest, counted: the stub sends its 15 Hz frames on 10 Hz steps, two at once
+  every other step, and with one place the first of the two was dropped a third of the time
+  the task was busy), waits for the ATTITUDE of its capture if it has not come, and runs the perception
   (core/perception/depth_perception.py, numpy: tens of ms) in a one-thread executor; the loop
   keeps handling MAVLink meanwhile. The observations go to the estimator on the loop.
 - Lock-step (``settle``): the stub sends a step's frames before the step's messages, on another
@@ -33,6 +35,7 @@ from companion.errors import CompanionError
 
 log = logging.getLogger(__name__)
 
+LIVE_PER_CAMERA = 2         # live: frames of one camera waiting; a newer one drops the oldest
 LOCKSTEP_QUEUE = 64          # frames held in lock-step (a step brings one or two per camera)
 LOCKSTEP_WAIT_S = 3.0        # wall seconds a lock-step sample waits for its frames (the stub's)
 ATTITUDE_WAIT_S = 0.5        # live: a frame waits this long for the ATTITUDE of its capture
@@ -58,12 +61,12 @@ class FrameSlot:
             if len(self.frames) >= LOCKSTEP_QUEUE:
                 self.frames.popleft()
                 self.dropped += 1
-        else:       # live: the newest of each camera wins
-            for i, (old, _) in enumerate(self.frames):
-                if old.frame.camera_id == frame.camera_id:
-                    del self.frames[i]
-                    self.dropped += 1
-                    break
+        else:       # live: the newest of each camera win
+            same = [i for i, (old, _) in enumerate(self.frames)
+                    if old.frame.camera_id == frame.camera_id]
+            if len(same) >= LIVE_PER_CAMERA:
+                del self.frames[same[0]]
+                self.dropped += 1
         self.frames.append((sourced, read_s))
         self.received += 1
         self.last_key = (frame.frame_number, frame.camera_id)
@@ -94,9 +97,9 @@ class DepthFeed:
         self.attitude_seen = asyncio.Event()
         self.latencies_s: deque[float] = deque(maxlen=LATENCY_KEPT)
         self.perceive_s: deque[float] = deque(maxlen=LATENCY_KEPT)
-        # (capture s on the vehicle's clock, Unix s when absorbed, observations): for
-        # benchmarks/depth_service.py's capture -> setpoint, with the tlog's setpoints
-        self.absorbed: deque[tuple[float, float, int]] = deque(maxlen=LATENCY_KEPT)
+        # (capture s on the vehicle's clock, Unix s when absorbed, observations, Unix s when
+        # read): benchmarks/depth_service.py's capture -> setpoint, with the tlog's setpoints
+        self.absorbed: deque[tuple[float, float, int, float]] = deque(maxlen=LATENCY_KEPT)
         self.wait_timeouts = 0
         self._stop = threading.Event()
         self._executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="depth-perceive")
@@ -179,10 +182,13 @@ class DepthFeed:
         self.perceive_s.append(time.monotonic() - started_s)
         out: list = []
         depth.absorb(self._now_s(), job, percept, out)
+        since_read_s = time.monotonic() - read_s     # in the estimator, decided, not yet sent
+        self.latencies_s.append(since_read_s)
+        now_unix_s = time.time()
+        self.absorbed.append((job.t_capture_s, now_unix_s, len(percept.observations),
+                              now_unix_s - since_read_s))
         for output in out:
             await self._dispatch(output)
-        self.latencies_s.append(time.monotonic() - read_s)
-        self.absorbed.append((job.t_capture_s, time.time(), len(percept.observations)))
 
     # ------------------------------------------------------------ lock-step
     async def settle(self, t_s: float) -> None:
