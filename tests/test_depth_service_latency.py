@@ -20,8 +20,8 @@ def test_each_frame_is_answered_by_the_next_setpoint_after_its_absorption():
         (5.067, T0 + 5.57, 1, T0 + 5.55),     # after the rebase: tied near its capture
     ]
     total, read = capture_to_setpoint_s(absorbed, sent, boot, gap)
-    assert total == pytest.approx([0.25 - 0.10 - 0.002, 5.58 - 5.067 - 0.501])
-    assert read == pytest.approx([0.12 - 0.10 - 0.002, 5.55 - 5.067 - 0.501])
+    assert total == pytest.approx([0.25 - 0.10 - 0.002, 5.58 - 5.067 - 0.501], abs=1e-6)
+    assert read == pytest.approx([0.12 - 0.10 - 0.002, 5.55 - 5.067 - 0.501], abs=1e-6)
 
 
 def test_the_tie_is_the_fastest_delivery_within_the_window():
