@@ -8,6 +8,8 @@ from __future__ import annotations
 import json
 import socket
 
+import numpy as np
+
 from tests.e2e.test_demo_replay import companion
 
 SAFETY_DISTANCE_M = 10.0          # depth.yaml's d
@@ -46,13 +48,17 @@ def _closed_port() -> int:
 
 
 def test_run_with_a_depth_source_that_cannot_be_read_says_which_and_why(tmp_path):
+    from tests.adapters.test_depth_sources import H, W, _write_ros2_bag
+    _write_ros2_bag(tmp_path / "mono8", "mono8", [np.zeros((H, W), np.uint8)])  # not a depth image
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as vehicle:   # nobody answers
         vehicle.bind(("127.0.0.1", 0))
         url = f"udpout:127.0.0.1:{vehicle.getsockname()[1]}"
         # (without the extra 'depth', the recording's reader says to install it)
         for source, says in ((f"stub:127.0.0.1:{_closed_port()}", ("cannot connect",)),
                              (f"realsense-bag:{tmp_path / 'none.db3'}",
-                              ("no recording", "companion-avoid[depth]"))):
+                              ("no recording", "companion-avoid[depth]")),
+                             (f"rosbag:{tmp_path / 'mono8'}:/camera/depth/image_rect_raw",
+                              ("'mono8' is not a depth image",))):
             done = companion("run", "--connect", url, "--goal", "10,0", "--depth", source,
                              "--param-overlay", "none", timeout_s=60.0)
             assert done.returncode == 2, done.stderr

@@ -120,6 +120,10 @@ def test_capture_time_on_the_vehicle_clock():
     assert p.depth.capture_time_s(frame, unix_s) == pytest.approx(feed.t_s)
     assert p.depth.capture_time_s(frame, unix_s + 0.5) == pytest.approx(feed.t_s + 0.5)
     assert p.wants_timesync
+    # once TIMESYNC has answered: its offset (vehicle clock - ours), not the first frame's
+    ts1 = p.timesync.request(int(unix_s * 1e9))
+    p.timesync.on_reply(int(42.0 * 1e9), ts1, ts1 + 2_000_000)       # 2 ms round trip
+    assert p.depth.capture_time_s(frame, unix_s + 1.0) == pytest.approx(42.0 - 0.001 + 1.0)
 
 
 def test_without_a_depth_source_the_pipeline_keeps_no_poses():
