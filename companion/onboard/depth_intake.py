@@ -17,7 +17,9 @@ result in. Replay can drive it the same way.
   frame's points are moved by the motion from its capture to the latest estimate and go to the
   estimator at that estimate's time. A capture up to ``EXTRAPOLATE_S`` after the latest estimate
   (lock-step hands a step's frames over before the step's position) is placed by the last two
-  estimates' rates; older than ``POSE_SPAN_S``, refused and counted.
+  estimates' rates, its yaw by that ATTITUDE's yaw rate (two estimates' difference missed the
+  step's turn: bearings 2-3 degrees off, three landmarks a post in the depth demo); older than
+  ``POSE_SPAN_S``, refused and counted.
 - The mount is ``perception.depth.cameras[camera_id]``; the altitude above the floor is the
   flight phase's (above the takeoff point) at the latest estimate, carried there by its climb
   rate (the points are moved there); unknown: the floor is fitted.
@@ -68,15 +70,17 @@ class DepthIntake:
     def __init__(self, pipeline) -> None:
         self._pipeline = pipeline
         self.history = PoseHistory(POSE_SPAN_S, EXTRAPOLATE_S)
-        self.attitudes: deque[tuple[float, float, float]] = deque(maxlen=ATTITUDE_HISTORY)
+        # (t_s, roll, pitch, yaw rate) of the ATTITUDEs
+        self.attitudes: deque[tuple[float, float, float, float]] = deque(maxlen=ATTITUDE_HISTORY)
         self.epoch_camera = EpochCamera()
         self.counts: Counter = Counter()
         self.last_delay_s: float | None = None     # capture -> the estimate it was used at
 
     # ------------------------------------------------------------ from the stream
-    def on_attitude(self, t_s: float, roll_rad: float, pitch_rad: float) -> None:
+    def on_attitude(self, t_s: float, roll_rad: float, pitch_rad: float,
+                    yaw_rate_rad_s: float = 0.0) -> None:
         if math.isfinite(roll_rad) and math.isfinite(pitch_rad):
-            self.attitudes.append((t_s, roll_rad, pitch_rad))
+            self.attitudes.append((t_s, roll_rad, pitch_rad, yaw_rate_rad_s))
 
     def on_estimate(self, t_s: float, navigator, up_m: float | None) -> None:
         """The estimate after an odometry sample (north, east, yaw) and the altitude now."""
@@ -116,7 +120,7 @@ class DepthIntake:
         tilt = self._tilt_at(t_capture_s, final, p.config.commanding.max_attitude_age_s)
         if tilt is None:
             return "wait" if not final else self._refuse("no_attitude")
-        motion = self.history.motion_since(t_capture_s)
+        motion = self.history.motion_since(t_capture_s, tilt[2])
         if motion is None:
             return self._refuse("outside_pose_history")
         depth = p.config.perception.depth
@@ -142,12 +146,13 @@ class DepthIntake:
         self.counts[reason] += 1
         return reason
 
-    def _tilt_at(self, t_s: float, final: bool, max_age_s: float) -> tuple[float, float] | None:
-        """Roll and pitch of the first ATTITUDE at or after ``t_s``; ``final``: else of the
-        latest before it, if within ``max_age_s``."""
-        for t_att, roll, pitch in self.attitudes:
+    def _tilt_at(self, t_s: float, final: bool,
+                 max_age_s: float) -> tuple[float, float, float] | None:
+        """Roll, pitch and yaw rate of the first ATTITUDE at or after ``t_s``; ``final``: else
+        of the latest before it, if within ``max_age_s``."""
+        for t_att, roll, pitch, yaw_rate in self.attitudes:
             if t_att >= t_s - TIME_EPS_S:
-                return roll, pitch
+                return roll, pitch, yaw_rate
         if final and self.attitudes and t_s - self.attitudes[-1][0] <= max_age_s:
             return self.attitudes[-1][1:]
         return None

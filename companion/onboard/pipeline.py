@@ -162,7 +162,8 @@ class Pipeline:
         elif isinstance(event, codec.Attitude) and identity.is_vehicle(event):
             if self._timed(t_link_s, event, out) and self._plausible_attitude(event):
                 if self.depth_source:
-                    self.depth.on_attitude(event.t_s, event.roll_rad, event.pitch_rad)
+                    self.depth.on_attitude(event.t_s, event.roll_rad, event.pitch_rad,
+                                           event.yaw_rate_rad_s)
                 held = self.attitude.add(event)
                 if held is not None:
                     self._on_position(t_link_s, held, out)
