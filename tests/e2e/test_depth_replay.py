@@ -29,6 +29,8 @@ def test_a_depth_flight_replayed_from_its_realsense_bag_gives_the_live_map(tmp_p
     assert done.returncode == 0, done.stdout + done.stderr
     live = json.loads((work / "companion-report.json").read_text())    # at the service's exit
     assert live["depth_feed"]["dropped"] == 0
+    stub_log = (work / "sitl-stub.stderr").read_text()
+    assert "behind" not in stub_log, "the stub dropped frames for a client (the recorder?)"
     replayed = companion("replay", str(tlog), "--depth", f"realsense-bag:{bag}",
                          "--json", str(tmp_path / "r.json"), timeout_s=300.0)
     assert replayed.returncode == 0, replayed.stdout + replayed.stderr
