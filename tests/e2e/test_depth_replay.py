@@ -5,7 +5,7 @@ map the live flight had, and the same setpoints.
 
 Tolerance: 1 cm on every landmark. The frames come back pixel for pixel (tests/adapters/
 test_depth_bags.py), but the SDK stores the intrinsics as float32 (the stub sends float64): the
-replayed landmarks differ by 1.5e-7 m at most, the setpoints by 2.6e-7 (measured, seed 0)."""
+replayed landmarks differ by 1.3e-7 m at most, the setpoints by 3.2e-7 (measured, seed 0)."""
 from __future__ import annotations
 
 import json
@@ -44,7 +44,7 @@ def test_a_depth_flight_replayed_from_its_realsense_bag_gives_the_live_map(tmp_p
         assert abs(a["east_m"] - b["east_m"]) <= TOLERANCE_M
     assert again["setpoints_unmatched"] == 0 and again["setpoints_compared"] > 100
     assert again["max_position_difference_m"] <= TOLERANCE_M
-    # the same setpoints, to the float32 intrinsics' ulps (measured: 2.6e-7 m/s at most)
+    # the same setpoints, to the float32 intrinsics' ulps (measured: 3.2e-7 at most)
     sent = [(m.vx, m.vy, m.yaw) for r in TlogReader(tlog) for m in [r.msg]
             if m.get_srcComponent() == 191 and m.get_type() == "SET_POSITION_TARGET_LOCAL_NED"]
     redone = [(s["vel_north_mps"], s["vel_east_mps"], s["yaw_rad"]) for s in again["setpoints"]]
