@@ -142,8 +142,8 @@ class DepthFeed:
         self.start()
         while True:
             await self.slot.changed.wait()
-            if self.slot.ended and not self.slot.frames:
-                self._on_end()
+            if self.slot.ended and (self.lockstep or not self.slot.frames):
+                self._on_end()                   # (lock-step: settle takes what is left)
                 return
             if self.lockstep:
                 self.slot.changed.clear()
