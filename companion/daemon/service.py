@@ -152,17 +152,20 @@ class Service:
         t_us = received.t_us if self.clock is None else self.clock.observe(event)
         if self.clock is None and self._is_vehicle(event):
             self.notice_clock.observe(event)
-        if self.tlog is not None:
-            self.tlog.write(t_us, codec.packet_bytes(received.msg))
-        if self.clock is not None and self.clock.heartbeat_due():
-            self._send_identity()
-        self.streams.on_event(event)
         if self.depth is not None:
             if isinstance(event, codec.Attitude):
                 self.depth.attitude_seen.set()
             elif self.clock is not None and isinstance(event, codec.LocalPosition) \
                     and self._is_vehicle(event):
-                await self.depth.settle(event.t_s)    # lock-step: the step's frames first
+                # lock-step: the step's frames first (companion replay --depth does the same);
+                # recorded after them, so that a stop while they are perceived leaves the
+                # position neither handled nor in the tlog
+                await self.depth.settle(event.t_s)
+        if self.tlog is not None:
+            self.tlog.write(t_us, codec.packet_bytes(received.msg))
+        if self.clock is not None and self.clock.heartbeat_due():
+            self._send_identity()
+        self.streams.on_event(event)
         if isinstance(event, codec.TimeSyncReply) and self._is_vehicle(event):
             sample = pipeline.timesync.on_reply(event.tc1_ns, event.ts1_ns, time.time_ns())
             if sample is not None and pipeline.timesync.replies == 1:

@@ -35,8 +35,11 @@ def test_a_depth_flight_replayed_from_its_realsense_bag_gives_the_live_map(tmp_p
                          "--json", str(tmp_path / "r.json"), timeout_s=300.0)
     assert replayed.returncode == 0, replayed.stdout + replayed.stderr
     again = json.loads((tmp_path / "r.json").read_text())
-    # every frame the live service perceived, perceived again from the bag
-    assert again["depth"]["frames"] == live["depth"]["frames"] > 500
+    # every frame the live service perceived, perceived again from the bag (but for the last
+    # step's, at most two, if the stop came while they were perceived: at the goal, none of
+    # them sees a post)
+    assert 0 <= live["depth"]["frames"] - again["depth"]["frames"] <= 2
+    assert again["depth"]["frames"] > 500
     assert again["depth"]["observations"] == live["depth"]["observations"]
     assert len(again["landmarks"]) == len(live["landmarks"]) >= 2
     for a, b in zip(live["landmarks"], again["landmarks"]):
