@@ -53,6 +53,10 @@ def add_parser(sub) -> None:
     p.add_argument("--json", metavar="PATH", help="write {aggregate, runs} as JSON")
     p.add_argument("--plot", metavar="PATH", help="draw the flight as a PNG (paper's Figure 4)")
     p.add_argument("--tlog", metavar="PATH", help="the companion records its traffic here")
+    p.add_argument("--depth-record", metavar="FILE.db3",
+                   help="a depth scenario: record the stub's depth stream beside the flight to "
+                        "this RealSense bag (companion depth-record; the extra 'depth'), for "
+                        "companion replay TLOG --depth realsense-bag:FILE.db3")
     p.add_argument("--keep", metavar="DIR", help="keep the work files (truth log, report, "
                    "children's stderr) in DIR instead of a temporary directory")
     p.add_argument("--view-feed", metavar="HOST:PORT",
@@ -96,6 +100,9 @@ def run(args: argparse.Namespace) -> int:
                              "--no-lockstep or --autopilot")
     if args.unshaped and not args.autopilot:
         raise CompanionError("--unshaped is --autopilot's (the stub's flights are unshaped)")
+    if args.depth_record and scenario.sensor.form != "depth":
+        raise CompanionError(f"--depth-record: {args.scenario} has no depth camera "
+                             "(sensor.form: depth)")
     if args.autopilot:
         return run_autopilot(args, scenario_path, scenario)
     if args.px4:
@@ -110,7 +117,8 @@ def run(args: argparse.Namespace) -> int:
                 scenario_path, scenario, files, args.speedup, args.seed, args.drop_rate,
                 Path(args.signing_key).resolve() if args.signing_key else None, args.lockstep,
                 args.view_feed, args.lockstep_overlap, base_config, args.stub_autopilot,
-                args.px4_offboard, px4_ground_station))
+                args.px4_offboard, px4_ground_station,
+                Path(args.depth_record).resolve() if args.depth_record else None))
         summary, arrays = score(report, truth, scenario, args.seed)
     wall_s = time.monotonic() - started
     result = demo_result(summary, arrays.pop("nees"), scenario)

@@ -11,7 +11,6 @@ running ``sitl-stub --depth-tcp`` stream (e.g. beside ``companion demo``).
 from __future__ import annotations
 
 import argparse
-import asyncio
 import dataclasses
 import sys
 
@@ -63,7 +62,7 @@ def run(args: argparse.Namespace) -> int:
                                  f"{args.stub!r}, {args.frames}")
         sink = BagSink(args.rosbag, args.realsense)
         try:
-            asyncio.run(_record_stub(host, int(port), args.frames, sink))
+            _record_stub(host, int(port), args.frames, sink)
         finally:
             sink.close()
     print(f"depth-record: {sink.frames} frames"
@@ -72,10 +71,37 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-async def _record_stub(host: str, port: int, frames: int, sink) -> None:
-    from companion.depth.stub_stream import open_stub_stream
-    async with open_stub_stream(host, port) as stream:
-        async for frame in stream:
-            sink([frame])
-            if stream.frames >= frames:
-                return
+def _record_stub(host: str, port: int, frames: int, sink) -> None:
+    """Read the stream in a thread at its own pace and write here: a bag writer slower than the
+    stream (the SDK's, ~35 ms a frame on a loaded machine, against a lock-step flight's 20-30
+    frames a second) must not make the stub drop frames for us (it does past 8 behind). The
+    writers stay on this thread (rosbags' sqlite is bound to the thread that opened it)."""
+    import queue
+    import threading
+    from companion.depth.open import read_stub
+    pending: queue.SimpleQueue = queue.SimpleQueue()
+    stop = threading.Event()
+    END = object()
+
+    def read() -> None:
+        try:
+            for sourced in read_stub(host, port):
+                pending.put(sourced.frame)
+                if stop.is_set():
+                    break
+        except BaseException as exc:          # handed to the writing side, raised there
+            pending.put(exc)
+        pending.put(END)
+
+    reader = threading.Thread(target=read, name="depth-record-reader", daemon=True)
+    reader.start()
+    written = 0
+    while written < frames:
+        item = pending.get()
+        if item is END:
+            break
+        if isinstance(item, BaseException):
+            raise item
+        sink([item])
+        written += 1
+    stop.set()

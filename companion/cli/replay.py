@@ -28,6 +28,10 @@ def add_parser(sub) -> None:
                    help="override the config's goal")
     p.add_argument("--sysid", type=int, help="the vehicle's system id (default: the first "
                    "autopilot heartbeat)")
+    p.add_argument("--depth", metavar="SOURCE",
+                   help="the flight's depth frames (realsense-bag:FILE, rosbag:PATH:TOPIC, as "
+                        "companion depth-record wrote them): taken in as the lock-step service "
+                        "took them, those of time t before the position of t")
     p.add_argument("--json", metavar="PATH", help="everything, with the comparison, as JSON")
     p.add_argument("--csv", metavar="PATH", help="the estimated track as CSV")
     p.add_argument("--plot", metavar="PATH", help="the estimated track and map as a PNG")
@@ -49,6 +53,9 @@ def choose_config(args: argparse.Namespace):
     if args.sysid is not None:
         config = dataclasses.replace(config, link=dataclasses.replace(
             config.link, vehicle_system_id=args.sysid))
+    if getattr(args, "depth", None):
+        from companion.cli.run import with_depth_source
+        config = with_depth_source(config, args.depth)
     return config, path
 
 
@@ -62,9 +69,18 @@ def run(args: argparse.Namespace) -> int:
         print(f"companion replay: {tlog}: no such file", file=sys.stderr)
         return 2
     size = tlog.stat().st_size
+    from companion.depth.frames import DepthSourceError
+    depth = None
+    if getattr(args, "depth", None):
+        from companion.depth.open import open_depth_source
+        depth = open_depth_source(config.perception.depth.source)
     with tqdm(total=size, unit="B", unit_scale=True, desc="replay",
               disable=not sys.stderr.isatty()) as bar:
-        result = replay_tlog(tlog, config, progress=bar.update)
+        try:
+            result = replay_tlog(tlog, config, progress=bar.update, depth=depth)
+        except DepthSourceError as exc:
+            print(f"companion replay: {exc}", file=sys.stderr)
+            return 2
     data = report(result)
     data["config_file"] = str(config_path)
     if args.json:

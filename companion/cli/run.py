@@ -48,6 +48,11 @@ def add_parser(sub) -> None:
                    help="where parameters set from a ground station (PARAM_SET) are kept and read "
                         "back at start (default: CONFIG.params.yaml beside --config; 'none': "
                         "not kept)")
+    p.add_argument("--depth", metavar="SOURCE",
+                   help="read depth frames and perceive obstacles from them: stub:HOST:PORT "
+                        "(sitl-stub --depth-tcp), rosbag:PATH:TOPIC, realsense-bag:FILE or "
+                        "realsense[:SERIAL] (the last three need the extra 'depth'); overrides "
+                        "perception.depth.source (docs/depth-perception.md)")
     p.add_argument("--view-feed", metavar="HOST:PORT",
                    help="send the live state to `companion view --source udp:HOST:PORT` "
                         "(UDP, 10 Hz; nothing waits for the view)")
@@ -104,10 +109,22 @@ def effective_config(args: argparse.Namespace) -> CompanionConfig:
     if config.goal is None:
         raise ConfigError(f"{args.config}: goal: not set; give --goal NORTH,EAST (or "
                           "--goal geo:LAT,LON) or a goal: section")
+    if getattr(args, "depth", None):
+        config = with_depth_source(config, args.depth)
     if getattr(args, "sysid", None) is not None:
         config = dataclasses.replace(config, link=dataclasses.replace(
             config.link, vehicle_system_id=args.sysid))
     return config
+
+
+def with_depth_source(config: CompanionConfig, source: str) -> CompanionConfig:
+    """The config with perception.depth.source replaced (``--depth``), checked."""
+    try:
+        depth = dataclasses.replace(config.perception.depth, source=source)
+    except FieldError as exc:
+        raise ConfigError(f"--depth: {exc.problem}") from None
+    return dataclasses.replace(config, perception=dataclasses.replace(config.perception,
+                                                                      depth=depth))
 
 
 def run(args: argparse.Namespace) -> int:

@@ -13,6 +13,7 @@ import math
 from dataclasses import dataclass
 from typing import Literal
 
+from companion.config.depth import MAX_CAMERAS, CameraMountConfig
 from companion.config.loader import FieldError, require
 from companion.core.perception.blobs import BlobParams
 from companion.core.perception.depth_perception import DepthPerceptionParams
@@ -60,8 +61,19 @@ def parse_source(text: str) -> DepthSource:
 
 @dataclass(frozen=True)
 class DepthPerceptionConfig:
-    """core/perception/depth_perception.py's choices (each explained there)."""
+    """core/perception/depth_perception.py's choices (each explained there), and for a
+    service's own frames (``source``): the camera's rate, mounts and stereo figures.
+
+    ``rate_hz``: the camera's frame rate (a live RealSense is opened at it; in lock-step the
+    frames of a sample's time are waited for: frame k is the stub's capture at k / rate_hz).
+    ``cameras``: one mount per camera id (body FRD offset, roll, pitch, yaw; empty: one level
+    camera at the centre, facing forward). ``baseline_m``, ``subpixel``: the stereo error's
+    figures (a D455's: 95 mm, 0.08 px; config/depth.py cites them)."""
     source: str | None = None
+    rate_hz: float = 15.0
+    cameras: tuple[CameraMountConfig, ...] = ()
+    baseline_m: float = 0.095
+    subpixel: float = 0.08
     decimation: int = 4
     bin_deg: float = 1.0
     min_support: int = 8
@@ -73,6 +85,13 @@ class DepthPerceptionConfig:
     def __post_init__(self) -> None:
         if self.source is not None:
             parse_source(self.source)
+        require(0.5 <= self.rate_hz <= 120.0, "rate_hz", self.rate_hz, "a rate in [0.5, 120] Hz")
+        require(len(self.cameras) <= MAX_CAMERAS, "cameras", len(self.cameras),
+                f"at most {MAX_CAMERAS} cameras")
+        require(0.0 < self.baseline_m <= 1.0, "baseline_m", self.baseline_m,
+                "a stereo baseline in (0, 1] m")
+        require(0.0 < self.subpixel <= 1.0, "subpixel", self.subpixel,
+                "a subpixel RMS in (0, 1] px")
         require(1 <= self.decimation <= 16, "decimation", self.decimation, "an integer in [1, 16]")
         require(0.0 < self.bin_deg <= 10.0, "bin_deg", self.bin_deg, "a bin in (0, 10] degrees")
         require(1 <= self.min_support <= 1000, "min_support", self.min_support,
@@ -83,6 +102,10 @@ class DepthPerceptionConfig:
                 self.range_floor_sigma_m, "a sigma in (0, 5] m")
         require(0.0 <= self.attitude_sigma_deg <= 10.0, "attitude_sigma_deg",
                 self.attitude_sigma_deg, "a sigma in [0, 10] degrees")
+
+    def mounts(self) -> list:
+        """The cameras' mounts by camera id (core.perception.depth_frame.CameraMount)."""
+        return [camera.mount() for camera in (self.cameras or (CameraMountConfig(),))]
 
     def params(self, ground_margin_m: float, baseline_m: float = 0.095,
                subpixel_px: float = 0.08, blob: BlobParams = BlobParams()) -> DepthPerceptionParams:

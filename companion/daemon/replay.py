@@ -6,6 +6,10 @@ Pipeline.handle in file order, stamped with their own tlog time, exactly as the 
 live; so a tlog the daemon recorded replays to the same estimates and the same setpoints. What
 the recorded companion sent (its SET_POSITION_TARGET_LOCAL_NED and ODOMETRY) is kept aside for
 companion/tools/replay.py to compare with what the replay would send.
+
+With ``depth`` (the flight's depth frames, ``companion replay --depth SOURCE``), the frames are
+taken in as the lock-step service took them (companion/daemon/depth_feed.py, ``settle``): before
+the vehicle's position of time t, every frame captured by then, in order, perceived here.
 """
 from __future__ import annotations
 
@@ -13,7 +17,7 @@ import time
 from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable
+from typing import Callable, Iterator
 
 from companion.mavlink import codec
 from companion.mavlink.tlog import TlogReader, TlogStats
@@ -49,14 +53,17 @@ class ReplayResult:
 
 def replay_tlog(path: str | Path, config: CompanionConfig,
                 progress: Callable[[int], None] | None = None,
-                on_inbound: Callable[[int, Pipeline], None] | None = None) -> ReplayResult:
+                on_inbound: Callable[[int, Pipeline], None] | None = None,
+                depth: Iterator | None = None) -> ReplayResult:
     """Replay one tlog; never raises on a damaged file (see ``stats`` and ``notes``).
-    ``on_inbound(t_us, pipeline)`` after each inbound message (the live view's replay)."""
+    ``on_inbound(t_us, pipeline)`` after each inbound message (the live view's replay).
+    ``depth``: the flight's depth frames (SourcedFrames, in order; a source's error raises)."""
     reader = TlogReader(path, progress)
     pipeline = Pipeline(config, config.goal, record_track=True)
     result = ReplayResult(Path(path), reader.stats, pipeline, config)
     ours = config.link.component_id
     started = time.perf_counter()
+    frames = _Frames(depth) if depth is not None else None
     for record in reader:
         msg = record.msg
         kind = codec.message_type(msg)
@@ -71,13 +78,12 @@ def replay_tlog(path: str | Path, config: CompanionConfig,
                 result.recorded_poses.append(codec.odometry_key(msg))
             continue
         result.inbound += 1
-        for output in pipeline.handle(record.t_us / 1e6, codec.decode(msg)):
-            if isinstance(output, codec.VelocitySetpoint):
-                result.setpoints.append(output)
-                result.replayed_keys.append(codec.setpoint_key_of(output))
-            elif isinstance(output, codec.PoseEstimate):
-                result.replayed_poses[int(round(output.t_s * 1e6))] = (
-                    codec.float32(output.north_m), codec.float32(output.east_m))
+        event = codec.decode(msg)
+        if frames is not None and isinstance(event, codec.LocalPosition) and (
+                pipeline.vehicle is None
+                or (event.system_id, event.component_id) == pipeline.vehicle):
+            _collect(result, frames.take_in(pipeline, event.t_s, record.t_us / 1e6))
+        _collect(result, pipeline.handle(record.t_us / 1e6, event))
         if on_inbound is not None:
             on_inbound(record.t_us, pipeline)
     if len(result.recorded_keys) == len(result.replayed_keys) + 1 and result.last_us is not None:
@@ -90,6 +96,38 @@ def replay_tlog(path: str | Path, config: CompanionConfig,
     result.wall_s = time.perf_counter() - started
     _add_notes(result)
     return result
+
+
+def _collect(result: ReplayResult, outputs) -> None:
+    for output in outputs:
+        if isinstance(output, codec.VelocitySetpoint):
+            result.setpoints.append(output)
+            result.replayed_keys.append(codec.setpoint_key_of(output))
+        elif isinstance(output, codec.PoseEstimate):
+            result.replayed_poses[int(round(output.t_s * 1e6))] = (
+                codec.float32(output.north_m), codec.float32(output.east_m))
+
+
+class _Frames:
+    """The recorded frames, one looked ahead."""
+
+    def __init__(self, frames: Iterator) -> None:
+        self._frames = iter(frames)
+        self._next = next(self._frames, None)
+
+    def take_in(self, pipeline: Pipeline, t_s: float, t_link_s: float) -> list:
+        """Every frame captured by ``t_s``: perceived, into the pipeline (its outputs)."""
+        out: list = []
+        while self._next is not None:
+            sourced = self._next
+            capture_s = pipeline.depth.capture_time_s(sourced.frame, sourced.host_time_s)
+            if capture_s is not None and capture_s > t_s + 1e-6:
+                break
+            self._next = next(self._frames, None)
+            job = pipeline.depth.job(sourced.frame, capture_s, final=True)
+            if not isinstance(job, str):
+                pipeline.depth.absorb(t_link_s, job, job.perceive(), out)
+        return out
 
 
 def _add_notes(result: ReplayResult) -> None:

@@ -16,7 +16,11 @@ sending. Tasks, one job each:
   tlog       flush twice a second
   parameters write the parameter overlay after accepted PARAM_SETs (param_overlay.OverlaySaver)
   param-list PARAM_REQUEST_LIST answered at link.param_rate_hz, one list at a time (param_list.py)
+  depth      perception.depth.source (``--depth``): frames read and perceived off the loop,
+             their observations into the pipeline (companion/daemon/depth_feed.py)
   stop       SIGINT/SIGTERM -> one stop setpoint if commanding -> ShutdownRequested
+
+(over 400 lines: the tasks' wiring, one short method each, reads best in one place.)
 
 With ``lockstep`` (``companion run --lockstep``, against ``sitl-stub --lockstep``) the stamps given
 to the pipeline and the tlog, and our heartbeat schedule, come from the vehicle's clock
@@ -39,6 +43,7 @@ from companion.mavlink.link import MavlinkLink, open_link
 from companion.mavlink.tlog import TlogWriter
 from companion.config.secrets import read_signing_key
 from companion.config.service import CompanionConfig, config_to_dict
+from companion.daemon.depth_feed import DepthFeed
 from companion.daemon.param_list import send_param_list
 from companion.daemon.param_overlay import Overlay, OverlaySaver
 from companion.errors import ShutdownRequested
@@ -94,6 +99,11 @@ class Service:
             link.on_sent = tlog.write if clock is None else \
                 (lambda _t_us, data: tlog.write(clock.now_us(), data))
         link.on_connect = self.streams.wanted.set
+        self.depth: DepthFeed | None = None
+        if config.perception.depth.source is not None:
+            self.depth = DepthFeed(config.perception.depth.source, self.pipeline,
+                                   clock is not None, self._dispatch,
+                                   lambda: self._now_us() / 1e6)
 
     # ------------------------------------------------------------ tasks
     async def estimate(self) -> None:
@@ -142,6 +152,15 @@ class Service:
         t_us = received.t_us if self.clock is None else self.clock.observe(event)
         if self.clock is None and self._is_vehicle(event):
             self.notice_clock.observe(event)
+        if self.depth is not None:
+            if isinstance(event, codec.Attitude):
+                self.depth.attitude_seen.set()
+            elif self.clock is not None and isinstance(event, codec.LocalPosition) \
+                    and self._is_vehicle(event):
+                # lock-step: the step's frames first (companion replay --depth does the same);
+                # recorded after them, so that a stop while they are perceived leaves the
+                # position neither handled nor in the tlog
+                await self.depth.settle(event.t_s)
         if self.tlog is not None:
             self.tlog.write(t_us, codec.packet_bytes(received.msg))
         if self.clock is not None and self.clock.heartbeat_due():
@@ -311,6 +330,8 @@ class Service:
         data["phases"] = [list(change) for change in self.pipeline.phase_changes]
         data["setpoints_refused"] = dict(self.pipeline.gate.refused)
         data["config"] = config_to_dict(self.pipeline.config)
+        if self.depth is not None:
+            data.update(self.depth.snapshot())
         if self.overlay is not None:
             data["parameter_overlay"] = {"path": str(self.overlay.path),
                                          "values": dict(self.overlay.values),
@@ -376,6 +397,8 @@ async def run_service(config: CompanionConfig, url: str, tlog_path: str | Path |
                     tg.create_task(send_param_list(service.pipeline, service.param_list_queued,
                                                    lambda: service._now_us() / 1e6,
                                                    service._dispatch), name="param-list")
+                    if service.depth is not None:
+                        tg.create_task(service.depth.run(), name="depth")
                     if view_feed is not None:
                         tg.create_task(feed.publish(service.pipeline, view_feed), name="view-feed")
                     tg.create_task(service.raise_on_stop(), name="stop")
@@ -386,6 +409,8 @@ async def run_service(config: CompanionConfig, url: str, tlog_path: str | Path |
             loop.remove_signal_handler(sig)
         if tlog is not None:
             tlog.close()
+        if service is not None and service.depth is not None:
+            service.depth.close()
         if service is not None and service.saver is not None:
             service.saver.write_if_dirty()
         if service is not None and report_path is not None:

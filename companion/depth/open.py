@@ -39,6 +39,7 @@ def read_stub(host: str, port: int, timeout_s: float = 5.0) -> Iterator[SourcedF
     except OSError as exc:
         raise DepthSourceError(f"depth source stub:{host}:{port}: cannot connect: {exc} (is the "
                                "stub running with --depth-tcp?)") from None
-    with sock, sock.makefile("rb") as stream:
+    sock.settimeout(None)      # the timeout was the connection's: a stub may pause for long
+    with sock, sock.makefile("rb") as stream:      # (in lock-step, before its peer starts)
         while (frame := read_frame(stream)) is not None:
             yield SourcedFrame(frame)

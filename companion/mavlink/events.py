@@ -43,11 +43,15 @@ class Heartbeat:
 
 @dataclass(frozen=True)
 class Attitude:
+    """ATTITUDE: the yaw and its rate (odometry's heading); roll and pitch level a depth
+    camera's points (onboard/depth_intake.py); a hand-built event without them is level."""
     system_id: int
     component_id: int
     t_s: float
     yaw_rad: float
     yaw_rate_rad_s: float
+    roll_rad: float = 0.0
+    pitch_rad: float = 0.0
 
 
 @dataclass(frozen=True)

@@ -35,7 +35,8 @@ def _heartbeat(msg, sysid: int, compid: int) -> Heartbeat:
 
 
 def _attitude(msg, sysid: int, compid: int) -> Attitude:
-    return Attitude(sysid, compid, msg.time_boot_ms / 1000.0, msg.yaw, msg.yawspeed)
+    return Attitude(sysid, compid, msg.time_boot_ms / 1000.0, msg.yaw, msg.yawspeed, msg.roll,
+                    msg.pitch)
 
 
 def _local_position(msg, sysid: int, compid: int) -> LocalPosition:

@@ -163,6 +163,15 @@ class FlightPhase:
         """The latest altitude above the takeoff point (None before any)."""
         return self._up_m
 
+    def up_at(self, t_s: float) -> float | None:
+        """The latest altitude carried to ``t_s`` by its climb rate (GLOBAL_POSITION_INT comes
+        at 2 Hz: 1.25 m stale in a 2.5 m/s climb); None before any, or when it is older than
+        ``altitude_timeout_s``."""
+        if self._up_m is None or self._alt_t_s is None \
+                or abs(t_s - self._alt_t_s) > self.params.altitude_timeout_s:
+            return None
+        return self._up_m + self._climb_mps * (t_s - self._alt_t_s)
+
 
 class VerticalHold:
     """The vertical term of the setpoints: hold the altitude at which commanding began."""

@@ -134,6 +134,7 @@ def snapshot(pipeline) -> dict:
         "parameters": pipeline.params.summary(),
         **odometry_intake.snapshot(nav),
         **pipeline.heights.snapshot(nav),
+        **pipeline.depth.snapshot(),        # only with a depth source: other reports unchanged
         # PX4 only (onboard/autopilot_dialect.py): ArduPilot flights' reports unchanged
         **({"offboard": {"entry": o.params.entry, "requests": o.requests,
                          "seen_offboard": o.seen_offboard, "engaged_by_us": o.engaged_by_us,

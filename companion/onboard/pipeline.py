@@ -35,6 +35,7 @@ estimator, a queued live parameter set applied at the safe point.
   identity.py          the vehicle, its heartbeat, whether it may be commanded
   attitude_pairing.py  each position's yaw from the ATTITUDE of its time
   camera_frames.py     obstacle reports in vehicle time, gathered into frames
+  depth_intake.py      a service's own depth frames: capture time, tilt and pose, into the map
   goals.py             the goal, the mission, a "fly to here", the arrival
   commander.py         decisions, setpoints, the safe action, the flight phase said
   outputs.py           the events for the service; the track, the map, our pose and movers
@@ -42,7 +43,8 @@ estimator, a queued live parameter set applied at the safe point.
   param_requests.py    PARAM_* answered, a live set queued for the next safe point
 
 The parts read the config through the pipeline when they use it (a live parameter set
-replaces it), never a copy taken at construction.
+replaces it), never a copy taken at construction. (over 400 lines: the stream's order is one
+function's with its few hooks into the parts; split, the order would be spread over files.)
 """
 from __future__ import annotations
 
@@ -61,6 +63,7 @@ from companion.onboard import odometry_intake
 from companion.onboard.autopilot_dialect import OffboardEntry
 from companion.onboard.attitude_pairing import TIME_EPS_S, AttitudePairing, plausible_attitude
 from companion.onboard.camera_frames import CameraFrames
+from companion.onboard.depth_intake import DepthIntake
 from companion.onboard.commander import Commander
 from companion.onboard.flight_phase import FlightPhase, VerticalHold
 from companion.onboard.goals import Goals
@@ -127,6 +130,7 @@ class Pipeline:
         self.identity = VehicleIdentity(self)
         self.attitude = AttitudePairing()
         self.frames = CameraFrames(self)
+        self.depth = DepthIntake(self)      # fed only with perception.depth.source set
         self.goals = Goals(self, goal)
         self.commander = Commander(self)
         self.outputs = EstimateOutputs(config.map_out, record_track, track_limit)
@@ -157,6 +161,9 @@ class Pipeline:
             self.count("ignored_other_source")
         elif isinstance(event, codec.Attitude) and identity.is_vehicle(event):
             if self._timed(t_link_s, event, out) and self._plausible_attitude(event):
+                if self.depth_source:
+                    self.depth.on_attitude(event.t_s, event.roll_rad, event.pitch_rad,
+                                           event.yaw_rate_rad_s)
                 held = self.attitude.add(event)
                 if held is not None:
                     self._on_position(t_link_s, held, out)
@@ -192,6 +199,11 @@ class Pipeline:
     record_track = property(lambda self: self.outputs.record_track)
     track = property(lambda self: self.outputs.track)
     params = property(lambda self: self.param_requests.server)
+
+    @property
+    def depth_source(self) -> bool:
+        """The service reads depth frames itself (perception.depth.source)."""
+        return self.config.perception.depth.source is not None
 
     @property
     def safe_reason(self) -> str | None:
@@ -297,6 +309,7 @@ class Pipeline:
         self.commander.reset()
         self.reset_counter += 1
         self.attitude.clear()
+        self.depth.reset()
         self.outputs.reset()
 
     def _reset_position(self, lpn: codec.LocalPosition, offset_m: float, reason: str,
@@ -372,6 +385,8 @@ class Pipeline:
             return
         self.ap_yaw_rad, self.ap_speed_mps = yaw, speed
         self.outputs.record(lpn.t_s, nav)
+        if self.depth_source:
+            self.depth.on_estimate(lpn.t_s, nav, self.phase.up_at(lpn.t_s))
         last = self.commander.last_decision_t_s
         due = (last is None or lpn.t_s - last
                >= self.config.commanding.setpoint_period_s - TIME_EPS_S)

@@ -11,6 +11,9 @@ the same whatever the machine's load. The stub holds t = 0 until the companion's
 the ground station sets the streams the companion will ask for, GUIDED and arms in that hold, and
 only then starts the companion, so every run starts from the same instant. Scored from the
 companion's report at arrival (later ones depend on when the children were stopped).
+
+(over 400 lines: the processes' start, the ground station's commands and the stop are one
+sequence, read together.)
 """
 from __future__ import annotations
 
@@ -33,7 +36,7 @@ from companion.config.service import CompanionConfig, config_to_dict, GoalConfig
 from companion.errors import CompanionError
 from companion.daemon.streams import STREAMS
 from companion.sim.simulation import perception_delay_s
-from companion.tools import px4_gcs
+from companion.tools import demo_depth, px4_gcs
 from companion.tools.demo_scoring import read_report, read_truth, wait_until_settled
 
 log = logging.getLogger(__name__)
@@ -50,6 +53,7 @@ CLIMB_EVIDENCE_M = 1.0           # LOCAL_POSITION_NED this far up: the takeoff i
 TAKEOFF_CLIMB_SIM_S = 10.0       # spool-up (2.5 s) and the first metre, with margin: simulated s
 TAKEOFF_RETRY_SIM_S = 2.0        # NAV_TAKEOFF resent this often (simulated s) until accepted
 LOCKSTEP_MIN_REAL_TIME_FACTOR = 5.0   # the flight's wall deadline in lock-step assumes this
+DEPTH_MIN_REAL_TIME_FACTOR = 0.5      # ... and with depth images (1.4x measured, loaded VM)
 
 
 class DemoError(CompanionError):
@@ -105,10 +109,15 @@ def demo_config(scenario: Scenario, base_path: str | Path = "config/companion.ya
 
 
 def scenario_perception(scenario: Scenario):
-    """The scenario's perception section, its camera's vertical view filled in from its sensor."""
+    """The scenario's perception section, its sensor's vertical view filled in; for the depth
+    form its cameras' rate, mounts and stereo figures (the service reads the frames: --depth)."""
     perception = scenario.perception
     if perception.camera_vfov_deg is None:
         perception = dataclasses.replace(perception, camera_vfov_deg=scenario.sensor.vfov_deg)
+    if (sensor := scenario.sensor).form == "depth":
+        perception = dataclasses.replace(perception, depth=dataclasses.replace(
+            perception.depth, rate_hz=sensor.depth.rate_hz, cameras=sensor.cameras,
+            baseline_m=sensor.depth.baseline_m, subpixel=sensor.depth.subpixel))
     return perception
 
 
@@ -153,14 +162,16 @@ async def spawn(name: str, args: list[str], workdir: Path, stdout=None) -> Child
     return Child(name, proc, stderr_path)
 
 
-async def wait_for_ready(stub: Child) -> tuple[int, int]:
-    """The stub's READY line -> (tcp port, udp port)."""
+async def wait_for_ready(stub: Child, addresses: dict | None = None) -> tuple[int, int]:
+    """The stub's READY line -> (tcp port, udp port); ``addresses`` gets all it names."""
     try:
         async with asyncio.timeout(READY_TIMEOUT_S):
             while line := await stub.proc.stdout.readline():
                 text = line.decode(errors="replace").strip()
                 if text.startswith("SITL_STUB READY"):
                     ports = dict(part.split("=", 1) for part in text.split()[2:])
+                    if addresses is not None:
+                        addresses.update(ports)
                     return int(ports["tcp"].rpartition(":")[2]), int(ports["udp"].rpartition(":")[2])
     except TimeoutError:
         raise DemoError(f"sitl-stub not ready after {READY_TIMEOUT_S:.0f} s:\n"
@@ -243,7 +254,9 @@ async def ground_station(tcp_port: int, files: DemoFiles, scenario: Scenario, sp
             flight_sim_s = scenario.mission.max_time_s + 30.0      # the climb included
             if start_companion is not None:
                 await start_companion()
-                flight_s = flight_sim_s / LOCKSTEP_MIN_REAL_TIME_FACTOR + 30.0
+                flight_s = flight_sim_s / (DEPTH_MIN_REAL_TIME_FACTOR
+                                           if scenario.sensor.form == "depth"
+                                           else LOCKSTEP_MIN_REAL_TIME_FACTOR) + 30.0
             else:
                 flight_s = flight_sim_s / speedup + 30.0
             report = await wait_for(
@@ -327,10 +340,10 @@ async def run_demo(scenario_path: Path, scenario: Scenario, files: DemoFiles, sp
                    lockstep_overlap: bool = False,
                    base_config: str | Path = "config/companion.yaml",
                    stub_autopilot: str = "ardupilot", px4_offboard: str | None = None,
-                   px4_station=None) -> tuple[dict, dict, list[dict], list]:
+                   px4_station=None,
+                   depth_record: Path | None = None) -> tuple[dict, dict, list[dict], list]:
     """Fly the scenario; returns (the companion's report, its config, the truth records, the
-    ground station's (wall s, vehicle s) samples).
-    With ``signing_key_file``, the stub, the companion and the ground station all sign.
+    ground station's (wall s, vehicle s) samples). A depth scenario's frames: --depth-tcp. With ``signing_key_file``, the stub, the companion and the ground station all sign.
     ``lockstep``: stub and companion in lock-step (module docstring); else the stub free-runs at
     ``speedup`` on the wall clock. ``view_feed``: HOST:PORT the companion sends its live state to
     (``companion view``). ``lockstep_overlap``: the stub steps on the companion's answer to the
@@ -346,6 +359,7 @@ async def run_demo(scenario_path: Path, scenario: Scenario, files: DemoFiles, sp
     for stale in (files.report, files.truth):     # a kept workdir's last run must not score
         stale.unlink(missing_ok=True)
     children: list[Child] = []
+    recorder = None           # --depth-record (companion/tools/demo_depth.py): stopped after
     try:
         stub_args = [sys.executable, "-m", "sitl_stub", "--scenario", str(scenario_path),
                      "--tcp", "127.0.0.1:0", "--udp", "127.0.0.1:0", "--speedup", str(speedup),
@@ -360,12 +374,19 @@ async def run_demo(scenario_path: Path, scenario: Scenario, files: DemoFiles, sp
             stub_args += ["--signing-key", str(signing_key_file)]
         if lockstep:
             stub_args += ["--lockstep"] + (["--lockstep-overlap"] if lockstep_overlap else [])
+        if scenario.sensor.form == "depth":       # the frames beside the MAVLink link
+            stub_args += ["--depth-tcp", "127.0.0.1:0"]
         stub = await spawn("sitl-stub", stub_args, files.workdir, stdout=asyncio.subprocess.PIPE)
         children.append(stub)
-        tcp_port, udp_port = await wait_for_ready(stub)
+        tcp_port, udp_port = await wait_for_ready(stub, addresses := {})
         companion_args = [sys.executable, "-m", "companion", "-v", "run",
                           "--connect", f"udpout:127.0.0.1:{udp_port}",
                           "--config", str(files.config), "--report", str(files.report)]
+        if "depth" in addresses:
+            companion_args += ["--depth", f"stub:{addresses['depth']}"]
+            if depth_record is not None:
+                recorder = await demo_depth.start_recorder(spawn, addresses["depth"],
+                                                           depth_record, files.workdir, stub)
         if files.tlog:
             companion_args += ["--tlog", str(files.tlog)]
         if lockstep:
@@ -386,5 +407,7 @@ async def run_demo(scenario_path: Path, scenario: Scenario, files: DemoFiles, sp
         for child, code in zip(children, codes):
             if code not in (0, -signal.SIGTERM):
                 log.warning("%s exited with %s", child.name, code)
+        if recorder is not None and await demo_depth.finish_recorder(recorder) != 0:
+            log.warning("depth-record: %s", recorder.stderr_tail())
     final = report if lockstep else read_report(files.report) or report
     return final, config_to_dict(config), read_truth(files.truth), samples

@@ -32,3 +32,16 @@ def test_yaw_interpolates_the_short_way_round():
     history.add(0.0, 0.0, 0.0, math.radians(179.0))
     history.add(1.0, 0.0, 0.0, math.radians(-179.0))
     assert abs(history.at(0.5)[2]) == pytest.approx(math.pi, abs=1e-9)
+
+
+def test_a_capture_just_after_the_latest_estimate_is_extrapolated_within_the_bound():
+    history = PoseHistory(span_s=1.0, extrapolate_s=0.25)
+    history.add(0.0, 0.0, 0.0, 0.0, 10.0)
+    history.add(0.1, 0.5, 0.0, 0.02, 10.1)           # 5 m/s north, turning
+    n, e, yaw, alt = history.at(0.15)
+    assert (n, e, alt) == pytest.approx((0.75, 0.0, 10.15))
+    assert yaw == pytest.approx(0.03)                # the estimates' own turn carried on ...
+    assert history.at(0.15, yaw_rate_rad_s=-0.4)[2] == pytest.approx(0.0, abs=1e-12)  # or the gyro
+    motion = history.motion_since(0.15, yaw_rate_rad_s=-0.4)
+    assert motion.forward_m < 0.0                    # the capture is ahead of the latest estimate
+    assert history.at(0.4) is None                   # beyond the bound
