@@ -13,7 +13,7 @@ from companion.config.checks import require_positive, require_sigma, require_ste
 from companion.config.loader import FieldError, require
 from companion.core.avoidance.guidance import GuidanceParams
 from companion.core.avoidance.look_at import GoalLookParams
-from companion.core.avoidance.path_search import PathParams
+from companion.core.avoidance.path_search import STEADY_PATH, PathParams
 from companion.core.avoidance.union import UnionParams
 from companion.core.estimation.consistency import MonitorParams
 from companion.core.estimation.lifecycle import LifecycleParams
@@ -61,6 +61,11 @@ class AvoidanceConfig:
     path_search: bool = False             # velocity choice in a static field: fly the first leg
                                           # of a grid path over the mapped obstacles (forests;
                                           # core/avoidance/path_follow.py, path_search.py)
+    path_steady: bool = False             # the path search keeps to the way it followed last
+                                          # (a new way costs half as much again a metre off it)
+                                          # and its grid takes in the mapped trees beside it,
+                                          # up to 40 m either side (path_search.STEADY;
+                                          # forest-dense: the way in flipped side to side)
     evade_movers: bool = False            # a multicopter's evasion of near movers: side-step,
                                           # back off or stop with the nose held
                                           # (core/avoidance/evade.py; docs/copter-headon-failures.md)
@@ -142,7 +147,8 @@ class AvoidanceConfig:
                            evade_movers=self.evade_movers,
                            keep_near_tracks=self.keep_near_tracks,
                            seen_speed_limit=self.speed_limit == "seen",
-                           path=PathParams() if self.path_search else None,
+                           path=None if not self.path_search
+                           else STEADY_PATH if self.path_steady else PathParams(),
                            flank_scan_rad=None if self.flank_scan_deg is None
                            else math.radians(self.flank_scan_deg),
                            flank_scan_period_s=self.flank_scan_period_s)

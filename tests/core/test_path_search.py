@@ -7,7 +7,8 @@ import pytest
 from companion.core.avoidance.arc import VehicleLimits
 from companion.core.avoidance.guidance import GuidanceInputs, GuidanceParams
 from companion.core.avoidance.path_follow import guide_along_path
-from companion.core.avoidance.path_search import PathParams, clearance_at, plan_path
+from companion.core.avoidance.path_search import (STEADY_PATH, PathParams, clearance_at,
+                                                 off_path, plan_path)
 from companion.core.avoidance.union import UnionParams
 
 D = 1.5
@@ -129,3 +130,62 @@ def test_the_goal_beyond_the_grid_is_not_reached_by_backing_out_of_it():
     plan = plan_path(np.zeros(2), np.array([100.0, 0.0]), row, np.full(len(row), D))
     assert plan.found
     assert plan.points_ne_m[-1][0] >= 0.0
+
+
+def test_off_path_measures_the_distance_to_the_polyline_not_its_vertices():
+    path = np.array([[0.0, 0.0], [10.0, 0.0], [10.0, 10.0]])
+    points = np.array([[5.0, 0.9], [5.0, 1.1], [10.9, 5.0], [11.1, 5.0], [-0.5, 0.0],
+                       [-1.5, 0.0]])
+    assert off_path(points, path, 1.0).tolist() == [False, True, False, True, False, True]
+    assert off_path(points[:2], path[:1], 1.0).tolist() == [True, True]
+
+
+def _closed_wall(half_width_m: float) -> np.ndarray:
+    """Posts every metre along east at north 10 m, from -half_width_m to +half_width_m."""
+    return np.array([[10.0, e] for e in np.arange(-half_width_m, half_width_m + 0.5, 1.0)])
+
+
+def test_the_steady_grid_takes_in_a_mapped_wall_wider_than_its_sides():
+    # a wall 70 m wide, closed: the default grid (20 m either side) leaves by a side edge south
+    # of the wall, whose straight line to the goal runs through the mapped wall; the steady
+    # grid reaches the wall's ends and goes round one
+    wall = _closed_wall(35.0)
+    radii = np.full(len(wall), D)
+    goal = np.array([100.0, 0.0])
+    default = plan_path(np.zeros(2), goal, wall, radii, PathParams())
+    steady = plan_path(np.zeros(2), goal, wall, radii, STEADY_PATH)
+    assert default.found and steady.found
+    assert np.abs(default.points_ne_m[:, 1]).max() <= 20.0 + 1e-9
+    assert default.points_ne_m[-1, 0] < 10.0              # left the grid before the wall
+    assert np.abs(steady.points_ne_m[:, 1]).max() > 35.0 + D
+    assert steady.points_ne_m[-1, 0] > 10.0 or np.abs(steady.points_ne_m[-1, 1]) > 35.0 + D
+    assert clearance_at(steady.points_ne_m[1:], wall, radii).min() >= STEADY_PATH.margin_m - 1e-9
+
+
+def test_the_steady_grid_is_the_default_one_with_nothing_mapped_beside_it():
+    wall = _wall(6.0, 3.0)                                # within 20 m either side
+    radii = np.full(len(wall), D)
+    goal = np.array([30.0, 0.0])
+    default = plan_path(np.zeros(2), goal, wall, radii, PathParams())
+    same = plan_path(np.zeros(2), goal, wall, radii, PathParams(side_max_m=40.0))
+    assert np.array_equal(default.points_ne_m, same.points_ne_m)
+
+
+def test_a_kept_way_through_one_gap_is_kept_when_the_other_is_a_little_shorter():
+    # two gaps, east -6 and +5: the +5 one is shorter; the kept path through -6 holds with the
+    # keep weight, and without it (or without a kept path) the shorter one is taken
+    wall = np.array([[10.0, e] for e in np.arange(-20.0, 20.5, 1.0)
+                     if abs(e + 6.0) > 3.0 and abs(e - 5.0) > 3.0])
+    radii = np.full(len(wall), D)
+    goal = np.array([30.0, 0.0])
+    kept = np.array([[0.0, 0.0], [10.0, -6.0], [30.0, 0.0]])
+
+    def crossing(plan):
+        return plan.points_ne_m[np.argmin(np.abs(plan.points_ne_m[:, 0] - 10.0)), 1]
+
+    fresh = plan_path(np.zeros(2), goal, wall, radii, STEADY_PATH)
+    held = plan_path(np.zeros(2), goal, wall, radii, STEADY_PATH, kept_ne_m=kept)
+    unweighted = plan_path(np.zeros(2), goal, wall, radii, PathParams(), kept_ne_m=kept)
+    assert abs(crossing(fresh) - 5.0) < 1.0
+    assert abs(crossing(held) + 6.0) < 1.0
+    assert abs(crossing(unweighted) - 5.0) < 1.0

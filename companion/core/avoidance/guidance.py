@@ -88,7 +88,8 @@ class GuidanceInputs:
     (commitment.py); ``seen``: the space the camera has looked at (seen_space.py); ``spread_m``
     (n,): how far each obstacle may be from its estimate now (a coasting track's position sigma,
     a young mover's extrapolation), added to its safety distance (at most union.MAX_SPREAD_M);
-    ``look``: the flank scan's heading for a chosen one (flank_scan.py), or None."""
+    ``look``: the flank scan's heading for a chosen one (flank_scan.py), or None; ``kept_path_ne_m``
+    (k, 2): the path the follower followed last (path_search.plan_path's ``kept_ne_m``), or None."""
     pose: np.ndarray
     goal: np.ndarray
     obstacles: np.ndarray
@@ -102,6 +103,7 @@ class GuidanceInputs:
     seen: SeenSpace | None = None
     spread_m: np.ndarray | None = None
     look: Callable[[float], float | None] | None = None
+    kept_path_ne_m: np.ndarray | None = None
 
 
 def inflated_radius(d: float, rel_cov: np.ndarray | None, sigmas: float) -> float:

@@ -61,7 +61,8 @@ def guide_with_plan(inputs: GuidanceInputs, params: GuidanceParams,
             or goal_distance <= params.goal_radius_m:
         return guide_flyable(inputs, params, union), None
     radii = safety_radii(inputs, params)
-    plan = plan_path(pose[:2], goal, obstacles, radii, union.path, inputs.previous_heading_rad)
+    plan = plan_path(pose[:2], goal, obstacles, radii, union.path, inputs.previous_heading_rad,
+                     inputs.kept_path_ne_m)
     if not plan.found:
         return guide_flyable(replace(inputs, side=0, clear_reach_m=None), params, union), plan
     cruise = approach_speed(params, goal_distance)

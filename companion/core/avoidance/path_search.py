@@ -58,7 +58,11 @@ class PathParams:
     comfort_weight: float = 2.0
     ahead_m: float = 40.0         # the grid reaches this far toward the goal (the camera's 20 m
     back_m: float = 8.0           # and as much of unmapped space), this far behind the vehicle
-    side_m: float = 20.0          # and this far either side of the line to the goal
+    side_m: float = 20.0          # and this far either side of the line to the goal (or up to
+    side_max_m: float = 20.0      # this far, to take in the mapped circles beside the grid:
+                                  # an edge cell must not lead "straight to the goal" through
+                                  # trees already mapped beyond it; forest-dense, seed 0: the
+                                  # side edge moved with the vehicle, which shuttled 120 s)
     turn_weight: float = 1.0      # a move within turn_reach_m of the vehicle costs its length
     turn_reach_m: float = 3.0     # times 1 + this x (1 - cos) of its angle to the last heading:
                                   # the path keeps to the side it chose while the map shifts
@@ -68,11 +72,23 @@ class PathParams:
     tight_weight: float = 3.0     # a cost: their moves' length times 1 + up to this more (None:
                                   # free only at margin_m). forest-dense's gaps: 1.62-1.76 m
                                   # at best from the trees' centres (seeds 0-9), d + 0.3 = 1.8 m
+    keep_weight: float = 0.0      # moves through cells more than keep_width_m from the path
+    keep_width_m: float = 1.0     # last followed cost their length times 1 + this more: a new
+                                  # way must be that much cheaper over the grid to be taken
+                                  # (0: off). Without it, forest-dense's way in flipped between
+                                  # two sides as each side's trees were mapped (seed 0: 120 s
+                                  # in the clearing, docs/results/speed-limit.md)
     carrot_m: float = 8.0         # the first leg is at most this long (along the path)
     hold_m: float = 0.3           # path_follow.py: ... and must keep d + this (the flight's
                                   # tracking error, a trunk at the view's edge seen late)
     follow_s: float = 1.0         # path_follow.py: a command along the leg is rolled out this
                                   # long, then braked (the path, not the roll-out, looks ahead)
+
+
+STEADY_PATH = PathParams(keep_weight=0.5, side_max_m=40.0)   # avoidance.path_steady (choice,
+# measured on forest-dense at 5 m/s, docs/results/speed-limit.md): half as much again is more
+# than a newly mapped tree's detour, less than a mapped wall's; 40 m takes in what a 20 m camera
+# maps either side of a flight along a barrier
 
 
 @dataclass(frozen=True)
@@ -121,17 +137,39 @@ def _clearance_grid(us: np.ndarray, vs: np.ndarray, obstacle_u: np.ndarray,
 
 def plan_path(start_ne_m: np.ndarray, goal_ne_m: np.ndarray, obstacles: np.ndarray,
               radii: np.ndarray, params: PathParams = PathParams(),
-              previous_heading_rad: float | None = None) -> PlannedPath:
+              previous_heading_rad: float | None = None,
+              kept_ne_m: np.ndarray | None = None) -> PlannedPath:
     """The cheapest grid path from ``start_ne_m`` toward ``goal_ne_m`` around the ``obstacles``
     (n, 2) with safety radii ``radii`` (n,); see the module docstring. ``previous_heading_rad``:
-    the last decision's heading, which moves near the vehicle are charged for turning from."""
+    the last decision's heading, which moves near the vehicle are charged for turning from;
+    ``kept_ne_m`` (k, 2): the path last followed, which moves away from are charged
+    ``keep_weight`` more."""
     floor = params.margin_m if params.tight_floor_m is None else params.tight_floor_m
+    if params.keep_weight <= 0.0 or kept_ne_m is None or len(kept_ne_m) == 0:
+        kept_ne_m = None
     plan = _search(start_ne_m, goal_ne_m, obstacles, radii, params, previous_heading_rad, floor,
-                   ahead_only=not goal_inside_grid(start_ne_m, goal_ne_m, params))
+                   ahead_only=not goal_inside_grid(start_ne_m, goal_ne_m, params), kept=kept_ne_m)
     if plan.found or goal_inside_grid(start_ne_m, goal_ne_m, params):
         return plan
     return _search(start_ne_m, goal_ne_m, obstacles, radii, params, previous_heading_rad, floor,
-                   ahead_only=False)
+                   ahead_only=False, kept=kept_ne_m)
+
+
+def off_path(points_ne_m: np.ndarray, path_ne_m: np.ndarray, width_m: float) -> np.ndarray:
+    """(m,) bool: each point farther than ``width_m`` from every segment of the polyline
+    ``path_ne_m`` (k, 2); a single point is a segment of no length."""
+    a = path_ne_m[:-1] if len(path_ne_m) > 1 else path_ne_m
+    b = path_ne_m[1:] if len(path_ne_m) > 1 else path_ne_m
+    ab = b - a
+    length2 = np.maximum((ab * ab).sum(axis=1), 1e-12)
+    off = np.ones(len(points_ne_m), dtype=bool)
+    for start in range(0, len(a), 64):                   # bounded memory: 64 segments at a time
+        sa, sab, sl = a[start:start + 64], ab[start:start + 64], length2[start:start + 64]
+        rel = points_ne_m[:, None, :] - sa[None, :, :]
+        t = np.clip((rel * sab[None]).sum(axis=2) / sl[None], 0.0, 1.0)
+        gap = rel - t[..., None] * sab[None]
+        off &= ((gap * gap).sum(axis=2) > width_m * width_m).all(axis=1)
+    return off
 
 
 def goal_inside_grid(start_ne_m: np.ndarray, goal_ne_m: np.ndarray, params: PathParams) -> bool:
@@ -142,9 +180,10 @@ def goal_inside_grid(start_ne_m: np.ndarray, goal_ne_m: np.ndarray, params: Path
 
 def _search(start_ne_m: np.ndarray, goal_ne_m: np.ndarray, obstacles: np.ndarray,
             radii: np.ndarray, params: PathParams, previous_heading_rad: float | None,
-            need: float, ahead_only: bool) -> PlannedPath:
+            need: float, ahead_only: bool, kept: np.ndarray | None = None) -> PlannedPath:
     """plan_path with free cells keeping ``need`` (a margin) of clearance; ``ahead_only``: the
-    grid's edge leads to the goal only from cells not behind the vehicle."""
+    grid's edge leads to the goal only from cells not behind the vehicle; ``kept``: the path
+    last followed (cells off it cost ``keep_weight`` more)."""
     start = np.asarray(start_ne_m, dtype=float)
     goal = np.asarray(goal_ne_m, dtype=float)
     to_goal = goal - start
@@ -155,13 +194,14 @@ def _search(start_ne_m: np.ndarray, goal_ne_m: np.ndarray, obstacles: np.ndarray
     reach = min(distance, params.ahead_m)
     goal_inside = distance <= params.ahead_m
     us = np.arange(-params.back_m, reach + params.back_m * goal_inside + 0.5 * cell, cell)
-    vs = np.arange(-params.side_m, params.side_m + 0.5 * cell, cell)
+    side_lo, side_hi = _sides(start, axis_u, axis_v, reach, obstacles, radii, params)
+    vs = np.arange(-side_lo, side_hi + 0.5 * cell, cell)
     rows, cols = len(us), len(vs)
     grid_u, grid_v = np.meshgrid(us, vs, indexing="ij")
     centres = start + grid_u[..., None] * axis_u + grid_v[..., None] * axis_v     # (rows, cols, 2)
     flat = centres.reshape(-1, 2)
     # only obstacles whose circle reaches the grid (with the comfort band) count
-    span = np.hypot(params.back_m + reach + params.back_m, params.side_m)
+    span = np.hypot(params.back_m + reach + params.back_m, max(side_lo, side_hi))
     if len(obstacles):
         near = np.hypot(*(obstacles - (start + 0.5 * reach * axis_u)).T) - radii \
             < span + params.comfort_m
@@ -183,6 +223,8 @@ def _search(start_ne_m: np.ndarray, goal_ne_m: np.ndarray, obstacles: np.ndarray
         # a tight cell (clearance between need and margin_m) costs more, the tighter the more
         penalty = penalty + params.tight_weight * np.clip(
             (params.margin_m - clear) / (params.margin_m - need), 0.0, 1.0)
+    if kept is not None:
+        penalty = penalty + params.keep_weight * off_path(flat, kept, params.keep_width_m)
     # the grid's edges: 8-neighbour moves between free cells
     index = np.arange(rows * cols).reshape(rows, cols)
     src, dst, wts = [], [], []
@@ -245,6 +287,27 @@ def _search(start_ne_m: np.ndarray, goal_ne_m: np.ndarray, obstacles: np.ndarray
         if np.hypot(*(carrot - start)) > 1e-9 else math.atan2(axis_u[1], axis_u[0])
     return PlannedPath(True, points, carrot, heading, float(steps.sum()), float(dist[goal_node]),
                        keeps)
+
+
+def _sides(start: np.ndarray, axis_u: np.ndarray, axis_v: np.ndarray, reach: float,
+           obstacles: np.ndarray, radii: np.ndarray, params: PathParams) -> tuple[float, float]:
+    """How far the grid reaches either side of the line (right, left; whole cells): ``side_m``,
+    or with ``side_max_m`` beyond it, up to that far to take in every mapped circle (and its
+    comfort band) beside the grid's length, so that an edge cell's straight line to the goal
+    never stands for a way through obstacles already mapped beyond the edge."""
+    cell = params.cell_m
+    low = high = params.side_m
+    if params.side_max_m > params.side_m and len(obstacles):
+        u = (obstacles - start) @ axis_u
+        v = (obstacles - start) @ axis_v
+        pad = radii + params.margin_m + params.comfort_m + cell
+        beside = (u >= -params.back_m - pad) & (u <= reach + params.back_m + pad) \
+            & (np.abs(v) - pad <= params.side_max_m)
+        if beside.any():
+            low = max(low, float((pad[beside] - v[beside]).max()))
+            high = max(high, float((v[beside] + pad[beside]).max()))
+        low, high = min(low, params.side_max_m), min(high, params.side_max_m)
+    return cell * math.ceil(low / cell - 1e-9), cell * math.ceil(high / cell - 1e-9)
 
 
 def first_leg(points: np.ndarray, steps: np.ndarray, obstacles: np.ndarray, radii: np.ndarray,

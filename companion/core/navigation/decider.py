@@ -21,7 +21,7 @@ from companion.core.avoidance.guidance import (GuidanceCommand, GuidanceInputs, 
                                                guide_apf, guide_cone)
 from companion.core.avoidance.look_at import (GoalLookParams, LookAtParams, goal_look_yaw,
                                               threat_to_watch)
-from companion.core.avoidance.path_follow import guide_along_path
+from companion.core.avoidance.path_follow import guide_with_plan
 from companion.core.avoidance.seen_space import SeenSpace
 from companion.core.avoidance.union import UnionParams, guide_union
 from companion.core.avoidance.velocity_choice import guide_flyable
@@ -71,6 +71,7 @@ class Decider:
         self.watching: int | tuple | None = None
         self._last_heading: float | None = None
         self._side = 0
+        self._kept_path: np.ndarray | None = None   # the path followed last (path_search keep)
         self.commitment = Commitment()  # the velocity choice's side, kept by progress
         # what the camera has looked at (velocity choice with a camera range only)
         archive = estimator.options.archive
@@ -226,13 +227,22 @@ class Decider:
                 side=self.commitment.side if motion is not None else self._side,
                 velocities=velocities, motion=motion, growth_mps=growth,
                 clear_reach_m=reach or None, seen=self.seen, spread_m=spread,
-                look=self._look_for if self.scan is not None else None)
-            guide = guide_union if motion is None else \
-                guide_flyable if self.union.path is None else guide_along_path
-            command = guide(inputs, self.params, self.union)
+                look=self._look_for if self.scan is not None else None,
+                kept_path_ne_m=self._kept_path)
+            plan = None
+            if motion is None:
+                command = guide_union(inputs, self.params, self.union)
+            elif self.union.path is None:
+                command = guide_flyable(inputs, self.params, self.union)
+            else:
+                command, plan = guide_with_plan(inputs, self.params, self.union)
 
             def commit(chosen: GuidanceCommand) -> None:
                 self._side = chosen.side
+                if self.union.path is not None and self.union.path.keep_weight > 0.0:
+                    # the path and its straight line from the grid's edge to the goal
+                    self._kept_path = None if plan is None or not plan.found else \
+                        np.vstack([plan.points_ne_m, self.goal])
                 if motion is not None and chosen.mode != "arrived":
                     self.commitment = self.commitment.after(chosen.side, goal_distance)
             return command, movers, commit
