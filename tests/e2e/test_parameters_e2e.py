@@ -98,6 +98,8 @@ def test_mavproxy_lists_sets_and_the_next_flight_keeps_the_new_distance(tmp_path
             assert "CA_SAFE_DIST = 12.0" in gcs.expect("CA_SAFE_DIST = ")
         finally:
             gcs.close()
+        # written off the event loop after the set (param_overlay.OverlaySaver): wait for it
+        wait_until(overlay.exists, 10.0, "the parameter overlay file")
         assert yaml.safe_load(overlay.read_text()) == {"avoidance": {"safety_distance_m": 12.0}}
         code, _ = companion.stop()
         assert code == 0, companion.stderr()
