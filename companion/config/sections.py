@@ -1,6 +1,8 @@
 """The sections a scenario and the service share: ``avoidance`` and ``estimator``.
 
 The service's config (service.py) reuses these dataclasses, so a scenario's values can be dropped in.
+Over 400 lines: two sections of many keys, each with its reason beside it; split, the keys of one
+YAML section would be spread over two files.
 """
 from __future__ import annotations
 
@@ -9,7 +11,8 @@ from dataclasses import dataclass
 from typing import Literal
 
 
-from companion.config.checks import require_positive, require_sigma, require_stereo_k
+from companion.config.checks import (require_positive, require_sigma, require_stereo_k,
+                                     view_yaws_rad)
 from companion.config.loader import FieldError, require
 from companion.core.avoidance.guidance import GuidanceParams
 from companion.core.avoidance.look_at import GoalLookParams
@@ -68,6 +71,13 @@ class AvoidanceConfig:
                                           # the camera's range but out of its view, is kept until
                                           # the camera could have seen it there (movers.prune; on
                                           # with evade_movers; docs/copter-headon-failures.md)
+    # a multicopter's coasting mover track is also kept, whatever the camera's range, while its
+    # closest approach to the vehicle (flying on, or stopped) comes within d inside this many
+    # seconds (movers.approaching; docs/movers-speed.md). None: off
+    keep_tracks_horizon_s: float | None = None
+    # a multicopter with one forward camera slows where its view leaves the sides blind to
+    # movers of up to this speed (core/avoidance/blind_side.py; docs/movers-speed.md). None: off
+    blind_side_mover_mps: float | None = None
     # Never faster than the vehicle can stop in the space its camera has seen free, the loop's
     # latency (perception delay + a control period, + a/2j where jerk-shaped) counted, and a last
     # resort that may brake sideways (core/avoidance/speed_limit.py). None: off (every flight as
@@ -96,6 +106,10 @@ class AvoidanceConfig:
         require(self.max_altitude_m > self.min_altitude_m, "max_altitude_m", self.max_altitude_m,
                 f"an altitude above min_altitude_m ({self.min_altitude_m:g} m)")
         require_positive("lookahead_s", self.lookahead_s)
+        for key in ("keep_tracks_horizon_s", "blind_side_mover_mps"):
+            if getattr(self, key) is not None:
+                require(0.0 < getattr(self, key) <= 60.0, key, getattr(self, key),
+                        "a value in (0, 60] or null (off)")
         require(self.speed_limit in (None, "seen"), "speed_limit", self.speed_limit,
                 "null (off) or 'seen'")
         require(self.hysteresis >= 0.0, "hysteresis", self.hysteresis, "a weight >= 0")
@@ -141,6 +155,8 @@ class AvoidanceConfig:
                            gap_margin_m=self.gap_margin_m, headway_first=self.headway_first,
                            evade_movers=self.evade_movers,
                            keep_near_tracks=self.keep_near_tracks,
+                           keep_tracks_horizon_s=self.keep_tracks_horizon_s,
+                           blind_side_mover_mps=self.blind_side_mover_mps,
                            seen_speed_limit=self.speed_limit == "seen",
                            path=PathParams() if self.path_search else None,
                            flank_scan_rad=None if self.flank_scan_deg is None
@@ -256,6 +272,9 @@ class EstimatorConfig:
     tentative_in_guidance: bool = LifecycleParams().tentative_in_guidance
     sensor_fov_deg: float | None = None
     sensor_max_range_m: float | None = None
+    # a rig of cameras of sensor_fov_deg each: each one's yaw on the body (degrees, right
+    # positive; a scenario fills it from sensor.cameras). [0]: one camera looking forward.
+    sensor_view_yaws_deg: tuple[float, ...] = (0.0,)
     # The bounded map (core/estimation/map_archive.py): a landmark (not tentative) behind the vehicle,
     # farther than archive_behind_m and undetected for archive_unseen_s, is marginalised out of
     # the filter into a read-only archive. null: off (every landmark stays in the filter).
@@ -330,6 +349,10 @@ class EstimatorConfig:
                     "a field of view in (0, 360] or null")
         if self.sensor_max_range_m is not None:
             require_positive("sensor_max_range_m", self.sensor_max_range_m)
+        require(1 <= len(self.sensor_view_yaws_deg) <= 8
+                and all(-180.0 <= v <= 180.0 for v in self.sensor_view_yaws_deg),
+                "sensor_view_yaws_deg", list(self.sensor_view_yaws_deg),
+                "1 to 8 camera yaws on the body, each in [-180, 180] degrees")
         require_stereo_k("range_sigma_k_per_m", self.range_sigma_k_per_m)
 
     def lifecycle_params(self) -> LifecycleParams:
@@ -338,7 +361,8 @@ class EstimatorConfig:
                                delete_misses=self.delete_misses,
                                tentative_timeout_s=self.tentative_timeout_s, fov_rad=fov,
                                max_range_m=self.sensor_max_range_m,
-                               tentative_in_guidance=self.tentative_in_guidance)
+                               tentative_in_guidance=self.tentative_in_guidance,
+                               view_yaws_rad=view_yaws_rad(self.sensor_view_yaws_deg))
 
     def position_reset_params(self) -> PositionResetParams:
         return PositionResetParams(after_s=self.position_reset_after_s)
