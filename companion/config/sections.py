@@ -75,9 +75,6 @@ class AvoidanceConfig:
     # closest approach to the vehicle (flying on, or stopped) comes within d inside this many
     # seconds (movers.approaching; docs/movers-speed.md). None: off
     keep_tracks_horizon_s: float | None = None
-    # a multicopter with one forward camera slows where its view leaves the sides blind to
-    # movers of up to this speed (core/avoidance/blind_side.py; docs/movers-speed.md). None: off
-    blind_side_mover_mps: float | None = None
     # Never faster than the vehicle can stop in the space its camera has seen free, the loop's
     # latency (perception delay + a control period, + a/2j where jerk-shaped) counted, and a last
     # resort that may brake sideways (core/avoidance/speed_limit.py). None: off (every flight as
@@ -106,10 +103,9 @@ class AvoidanceConfig:
         require(self.max_altitude_m > self.min_altitude_m, "max_altitude_m", self.max_altitude_m,
                 f"an altitude above min_altitude_m ({self.min_altitude_m:g} m)")
         require_positive("lookahead_s", self.lookahead_s)
-        for key in ("keep_tracks_horizon_s", "blind_side_mover_mps"):
-            if getattr(self, key) is not None:
-                require(0.0 < getattr(self, key) <= 60.0, key, getattr(self, key),
-                        "a value in (0, 60] or null (off)")
+        if self.keep_tracks_horizon_s is not None:
+            require(0.0 < self.keep_tracks_horizon_s <= 60.0, "keep_tracks_horizon_s",
+                    self.keep_tracks_horizon_s, "a time in (0, 60] s or null (off)")
         require(self.speed_limit in (None, "seen"), "speed_limit", self.speed_limit,
                 "null (off) or 'seen'")
         require(self.hysteresis >= 0.0, "hysteresis", self.hysteresis, "a weight >= 0")
@@ -156,7 +152,6 @@ class AvoidanceConfig:
                            evade_movers=self.evade_movers,
                            keep_near_tracks=self.keep_near_tracks,
                            keep_tracks_horizon_s=self.keep_tracks_horizon_s,
-                           blind_side_mover_mps=self.blind_side_mover_mps,
                            seen_speed_limit=self.speed_limit == "seen",
                            path=PathParams() if self.path_search else None,
                            flank_scan_rad=None if self.flank_scan_deg is None

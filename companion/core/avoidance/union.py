@@ -64,8 +64,6 @@ class UnionParams:
                                       # kept (movers.prune; with evade_movers always)
     keep_tracks_horizon_s: float | None = None  # ... and one whose closest approach comes
                                       # within d inside this (movers.approaching; None: off)
-    blind_side_mover_mps: float | None = None   # slow where the view leaves the sides blind to
-                                      # movers this fast (blind_side.py; None: off)
     view_yaws_rad: tuple[float, ...] = (0.0,)   # a rig of cameras of fov_rad each, by yaw on
                                       # the body: what the camera sees (seen space, the keep)
     seen_speed_limit: bool = False    # velocity choice and path follower: never faster than the
