@@ -75,6 +75,9 @@ class AvoidanceConfig:
     # closest approach to the vehicle (flying on, or stopped) comes within d inside this many
     # seconds (movers.approaching; docs/movers-speed.md). None: off
     keep_tracks_horizon_s: float | None = None
+    # the velocity choice's cruise no faster than a mover of this speed, met head-on and first
+    # seen at the camera's range, can be dodged by d (core/avoidance/blind_side.py). None: off
+    mover_max_speed_mps: float | None = None
     # Never faster than the vehicle can stop in the space its camera has seen free, the loop's
     # latency (perception delay + a control period, + a/2j where jerk-shaped) counted, and a last
     # resort that may brake sideways (core/avoidance/speed_limit.py). None: off (every flight as
@@ -103,6 +106,9 @@ class AvoidanceConfig:
         require(self.max_altitude_m > self.min_altitude_m, "max_altitude_m", self.max_altitude_m,
                 f"an altitude above min_altitude_m ({self.min_altitude_m:g} m)")
         require_positive("lookahead_s", self.lookahead_s)
+        if self.mover_max_speed_mps is not None:
+            require(0.0 < self.mover_max_speed_mps <= 50.0, "mover_max_speed_mps",
+                    self.mover_max_speed_mps, "a speed in (0, 50] m/s or null (off)")
         if self.keep_tracks_horizon_s is not None:
             require(0.0 < self.keep_tracks_horizon_s <= 60.0, "keep_tracks_horizon_s",
                     self.keep_tracks_horizon_s, "a time in (0, 60] s or null (off)")
@@ -152,6 +158,7 @@ class AvoidanceConfig:
                            evade_movers=self.evade_movers,
                            keep_near_tracks=self.keep_near_tracks,
                            keep_tracks_horizon_s=self.keep_tracks_horizon_s,
+                           mover_max_speed_mps=self.mover_max_speed_mps,
                            seen_speed_limit=self.speed_limit == "seen",
                            path=PathParams() if self.path_search else None,
                            flank_scan_rad=None if self.flank_scan_deg is None
