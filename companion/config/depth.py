@@ -147,8 +147,8 @@ def check_cameras(form: str, cameras: tuple[CameraMountConfig, ...]) -> None:
     centres form as a rig of level cameras at the vehicle's centre that differ by their yaw only
     (each of sensor.fov_deg and max_range_m: a forward camera and two side ones, say)."""
     if cameras and form not in ("depth", "centres"):
-        raise FieldError("cameras", f"per-camera mounts are rendered by the depth form, or seen "
-                         f"by yaw in the centres form, got form {form!r}")
+        raise FieldError("cameras", f"per-camera mounts are rendered by the depth form only (or "
+                         f"seen by yaw in the centres form), got form {form!r}")
     if form == "centres":
         for camera in cameras:
             if camera.roll_deg or camera.pitch_deg or any(camera.offset_frd_m):
