@@ -1,8 +1,8 @@
 """The sections a scenario and the service share: ``avoidance`` and ``estimator``.
 
 The service's config (service.py) reuses these dataclasses, so a scenario's values can be dropped in.
-Over 400 lines: two sections of many keys, each with its reason beside it; split, the keys of one
-YAML section would be spread over two files.
+It runs over 400 lines: two sections of many keys, each with its reason beside it; split, the
+keys of one YAML section would be spread over two files.
 """
 from __future__ import annotations
 
