@@ -55,7 +55,13 @@ def true_range_bearing(north_m: float, east_m: float, yaw_rad: float,
 
 
 def in_view(range_m: float, bearing_rad: float, cfg: SensorConfig) -> bool:
-    return range_m <= cfg.max_range_m and abs(bearing_rad) <= cfg.fov_rad / 2.0
+    """Within range and within half the view of the camera, or of any camera of a centres rig
+    (sensor.cameras by yaw)."""
+    if range_m > cfg.max_range_m:
+        return False
+    if cfg.form != "centres" or not cfg.cameras:
+        return abs(bearing_rad) <= cfg.fov_rad / 2.0
+    return any(abs(wrap_pi(bearing_rad - m.yaw_rad)) <= cfg.fov_rad / 2.0 for m in cfg.cameras)
 
 
 @dataclass(frozen=True)

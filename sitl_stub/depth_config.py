@@ -102,13 +102,14 @@ def _optional(d, key: str, default: float) -> float:
 
 
 def parse_cameras(r, reader_cls, form: str) -> tuple[Mount, ...]:
-    """sensor.cameras: a list of mounts (form depth only); absent: one level forward camera."""
+    """sensor.cameras: a list of mounts (form depth; form centres: a rig of level cameras at the
+    centre, by yaw_deg alone); absent: one level forward camera."""
     items = r._get("cameras", None)
     if items is None:
         return (Mount(),) if form == "depth" else ()
-    if form != "depth":
-        raise r.error(f"per-camera mounts are rendered by the depth form only (sensor.form: "
-                      f"depth), got form {form!r}", "cameras")
+    if form not in ("depth", "centres"):
+        raise r.error(f"per-camera mounts are rendered by the depth form only (or seen by yaw in the "
+                      f"centres form), got form {form!r}", "cameras")
     if not isinstance(items, list) or not 1 <= len(items) <= 8:
         raise r.error("expected a list of 1 to 8 camera mounts", "cameras")
     mounts = []
@@ -125,4 +126,8 @@ def parse_cameras(r, reader_cls, form: str) -> tuple[Mount, ...]:
                             math.radians(c.number("pitch_deg", 0.0, minimum=-90, maximum=90)),
                             math.radians(c.number("yaw_deg", 0.0, minimum=-180, maximum=180))))
         c.finish()
+        if form == "centres" and (any(mounts[-1].offset_frd_m) or mounts[-1].roll_rad
+                                  or mounts[-1].pitch_rad):
+            raise c.error("the centres form's cameras are level, at the vehicle's centre, and "
+                          "differ by yaw_deg only", "yaw_deg")
     return tuple(mounts)

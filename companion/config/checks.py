@@ -1,6 +1,7 @@
 """Plausibility bounds and the value checks several config sections share."""
 from __future__ import annotations
 
+import math
 
 from companion.config.loader import require
 
@@ -25,3 +26,8 @@ def require_stereo_k(key: str, value: float) -> None:
     require(0.0 <= value <= MAX_STEREO_K_PER_M, key, value,
             f"a coefficient in [0, {MAX_STEREO_K_PER_M}] per metre (sigma_r = k r^2; a stereo "
             "camera's k = disparity sigma px / (focal length px x baseline m), about 0.0015)")
+
+
+def view_yaws_rad(yaws_deg: tuple[float, ...]) -> tuple[float, ...]:
+    """A camera rig's yaws on the body, degrees (config) to radians (core); [0] stays (0.0,)."""
+    return tuple(math.radians(v) for v in yaws_deg)

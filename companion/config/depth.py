@@ -143,9 +143,19 @@ class CameraMountConfig:
 
 
 def check_cameras(form: str, cameras: tuple[CameraMountConfig, ...]) -> None:
-    """sensor.cameras: one mount per camera, at most MAX_CAMERAS, for the depth form."""
-    if cameras and form != "depth":
-        raise FieldError("cameras", f"per-camera mounts are rendered by the depth form only "
-                         f"(sensor.form: depth), got form {form!r}")
+    """sensor.cameras: one mount per camera, at most MAX_CAMERAS, for the depth form, and for the
+    centres form as a rig of level cameras at the vehicle's centre that differ by their yaw only
+    (each of sensor.fov_deg and max_range_m: a forward camera and two side ones, say)."""
+    if cameras and form not in ("depth", "centres"):
+        raise FieldError("cameras", f"per-camera mounts are rendered by the depth form only (or "
+                         f"seen by yaw in the centres form), got form {form!r}")
+    if form == "centres":
+        for camera in cameras:
+            if camera.roll_deg or camera.pitch_deg or any(camera.offset_frd_m):
+                key = "offset_frd_m" if any(camera.offset_frd_m) else \
+                    "roll_deg" if camera.roll_deg else "pitch_deg"
+                raise FieldError("cameras", f"the centres form's cameras are level, at the "
+                                 f"vehicle's centre, and differ by yaw_deg only: {key} must "
+                                 f"be left out (or 0)")
     require(len(cameras) <= MAX_CAMERAS, "cameras", len(cameras),
             f"at most {MAX_CAMERAS} cameras")

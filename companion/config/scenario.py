@@ -150,6 +150,7 @@ class Scenario:
             yaw_bias_tau_s=yaw_bias_tau_s, velocity_frame=velocity_frame,
             position_fusion="auto" if copter else "off",
             sensor_fov_deg=self.sensor.fov_deg, sensor_max_range_m=self.sensor.max_range_m,
+            sensor_view_yaws_deg=self.sensor.view_yaws_deg,
             # The unicycle's 2-sigma radius reaches 2.4 m at the end of 300 m legs (dense and
             # moving worlds, measured): 3 m keeps the paper's figures; the multicopter's 2 m.
             # Flown on the stub the unicycle's odometry is the same (issue 31: with its yaw's

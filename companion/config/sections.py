@@ -1,6 +1,8 @@
 """The sections a scenario and the service share: ``avoidance`` and ``estimator``.
 
 The service's config (service.py) reuses these dataclasses, so a scenario's values can be dropped in.
+It runs over 400 lines: two sections of many keys, each with its reason beside it; split, the
+keys of one YAML section would be spread over two files.
 """
 from __future__ import annotations
 
@@ -9,7 +11,8 @@ from dataclasses import dataclass
 from typing import Literal
 
 
-from companion.config.checks import require_positive, require_sigma, require_stereo_k
+from companion.config.checks import (require_positive, require_sigma, require_stereo_k,
+                                     view_yaws_rad)
 from companion.config.loader import FieldError, require
 from companion.core.avoidance.guidance import GuidanceParams
 from companion.core.avoidance.look_at import GoalLookParams
@@ -73,6 +76,13 @@ class AvoidanceConfig:
                                           # the camera's range but out of its view, is kept until
                                           # the camera could have seen it there (movers.prune; on
                                           # with evade_movers; docs/copter-headon-failures.md)
+    # a multicopter's coasting mover track is also kept, whatever the camera's range, while its
+    # closest approach to the vehicle (flying on, or stopped) comes within d inside this many
+    # seconds (movers.approaching; docs/movers-speed.md). None: off
+    keep_tracks_horizon_s: float | None = None
+    # the velocity choice's cruise no faster than a mover of this speed, met head-on and first
+    # seen at the camera's range, can be dodged by d (core/avoidance/blind_side.py). None: off
+    mover_max_speed_mps: float | None = None
     # Never faster than the vehicle can stop in the space its camera has seen free, the loop's
     # latency (perception delay + a control period, + a/2j where jerk-shaped) counted, and a last
     # resort that may brake sideways (core/avoidance/speed_limit.py). None: off (every flight as
@@ -101,6 +111,12 @@ class AvoidanceConfig:
         require(self.max_altitude_m > self.min_altitude_m, "max_altitude_m", self.max_altitude_m,
                 f"an altitude above min_altitude_m ({self.min_altitude_m:g} m)")
         require_positive("lookahead_s", self.lookahead_s)
+        if self.mover_max_speed_mps is not None:
+            require(0.0 < self.mover_max_speed_mps <= 50.0, "mover_max_speed_mps",
+                    self.mover_max_speed_mps, "a speed in (0, 50] m/s or null (off)")
+        if self.keep_tracks_horizon_s is not None:
+            require(0.0 < self.keep_tracks_horizon_s <= 60.0, "keep_tracks_horizon_s",
+                    self.keep_tracks_horizon_s, "a time in (0, 60] s or null (off)")
         require(self.speed_limit in (None, "seen"), "speed_limit", self.speed_limit,
                 "null (off) or 'seen'")
         require(self.hysteresis >= 0.0, "hysteresis", self.hysteresis, "a weight >= 0")
@@ -146,6 +162,8 @@ class AvoidanceConfig:
                            gap_margin_m=self.gap_margin_m, headway_first=self.headway_first,
                            evade_movers=self.evade_movers,
                            keep_near_tracks=self.keep_near_tracks,
+                           keep_tracks_horizon_s=self.keep_tracks_horizon_s,
+                           mover_max_speed_mps=self.mover_max_speed_mps,
                            seen_speed_limit=self.speed_limit == "seen",
                            path=None if not self.path_search
                            else STEADY_PATH if self.path_steady else PathParams(),
@@ -262,6 +280,9 @@ class EstimatorConfig:
     tentative_in_guidance: bool = LifecycleParams().tentative_in_guidance
     sensor_fov_deg: float | None = None
     sensor_max_range_m: float | None = None
+    # a rig of cameras of sensor_fov_deg each: each one's yaw on the body (degrees, right
+    # positive; a scenario fills it from sensor.cameras). [0]: one camera looking forward.
+    sensor_view_yaws_deg: tuple[float, ...] = (0.0,)
     # The bounded map (core/estimation/map_archive.py): a landmark (not tentative) behind the vehicle,
     # farther than archive_behind_m and undetected for archive_unseen_s, is marginalised out of
     # the filter into a read-only archive. null: off (every landmark stays in the filter).
@@ -336,6 +357,10 @@ class EstimatorConfig:
                     "a field of view in (0, 360] or null")
         if self.sensor_max_range_m is not None:
             require_positive("sensor_max_range_m", self.sensor_max_range_m)
+        require(1 <= len(self.sensor_view_yaws_deg) <= 8
+                and all(-180.0 <= v <= 180.0 for v in self.sensor_view_yaws_deg),
+                "sensor_view_yaws_deg", list(self.sensor_view_yaws_deg),
+                "1 to 8 camera yaws on the body, each in [-180, 180] degrees")
         require_stereo_k("range_sigma_k_per_m", self.range_sigma_k_per_m)
 
     def lifecycle_params(self) -> LifecycleParams:
@@ -344,7 +369,8 @@ class EstimatorConfig:
                                delete_misses=self.delete_misses,
                                tentative_timeout_s=self.tentative_timeout_s, fov_rad=fov,
                                max_range_m=self.sensor_max_range_m,
-                               tentative_in_guidance=self.tentative_in_guidance)
+                               tentative_in_guidance=self.tentative_in_guidance,
+                               view_yaws_rad=view_yaws_rad(self.sensor_view_yaws_deg))
 
     def position_reset_params(self) -> PositionResetParams:
         return PositionResetParams(after_s=self.position_reset_after_s)

@@ -280,7 +280,8 @@ class SensorConfig:
     sees_ground: bool = False            # returns from the floor within range (a pitched camera)
     ground_points_per_frame: int = 4     # ... this many per frame, where the view meets the floor
     # form depth: the image (config/depth.py: a D455 by default) and the cameras' mounts (none
-    # given: one camera at the vehicle's centre, level, looking forward)
+    # given: one camera at the vehicle's centre, level, looking forward); form centres: a rig of
+    # cameras of fov_deg each by yaw_deg alone (forward and both sides: copter-3cam.yaml)
     depth: DepthConfig = field(default_factory=DepthConfig)
     cameras: tuple[CameraMountConfig, ...] = ()
 
@@ -320,6 +321,14 @@ class SensorConfig:
     @property
     def bearing_sigma_rad(self) -> float:
         return math.radians(self.bearing_sigma_deg)
+
+    @property
+    def view_yaws_deg(self) -> tuple[float, ...]:
+        """The centres form's rig: each camera's yaw on the body (degrees); (0.0,) for the one
+        forward camera (no sensor.cameras) and for the other forms."""
+        if self.form != "centres" or not self.cameras:
+            return (0.0,)
+        return tuple(float(c.yaw_deg) for c in self.cameras)
 
     def camera_mounts(self) -> tuple:
         """form depth: each camera's CameraMount (core/perception/depth_frame.py), camera id =

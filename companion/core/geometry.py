@@ -113,6 +113,28 @@ def place_jacobians(pose: np.ndarray, measurement: np.ndarray) -> tuple[np.ndarr
     return jac_pose, jac_measurement
 
 
-def is_visible(range_m: float, bearing_rad: float, fov_rad: float, max_range_m: float) -> bool:
-    """True when a point at (range, bearing) lies inside the sensor's field of view and range."""
-    return 0.0 < range_m <= max_range_m and abs(bearing_rad) <= 0.5 * fov_rad
+def is_visible(range_m: float, bearing_rad: float, fov_rad: float, max_range_m: float,
+               view_yaws_rad: tuple[float, ...] = (0.0,)) -> bool:
+    """True when a point at (range, bearing) lies inside the sensor's field of view and range.
+    ``view_yaws_rad``: a rig of cameras of that view each, by their yaw on the body (0: forward);
+    the point is visible to any of them."""
+    return 0.0 < range_m <= max_range_m and \
+        view_offset_rad(bearing_rad, view_yaws_rad) <= 0.5 * fov_rad
+
+
+def view_offset_rad(bearing_rad: float, view_yaws_rad: tuple[float, ...] = (0.0,)) -> float:
+    """How far (rad, >= 0) a body bearing lies from the nearest camera's axis of a rig
+    (``view_yaws_rad``, each camera's yaw on the body). The one forward camera: |bearing|, as
+    it always was (the same bits)."""
+    if view_yaws_rad == (0.0,):
+        return abs(bearing_rad)
+    return min(abs(wrap_angle(bearing_rad - yaw)) for yaw in view_yaws_rad)
+
+
+def view_offsets_rad(bearings_rad: np.ndarray,
+                     view_yaws_rad: tuple[float, ...] = (0.0,)) -> np.ndarray:
+    """Vectorised :func:`view_offset_rad`: (n,) bearings (rad) to (n,) offsets."""
+    if view_yaws_rad == (0.0,):
+        return np.abs(bearings_rad)
+    return np.min([np.abs(wrap_angles(np.asarray(bearings_rad) - yaw))
+                   for yaw in view_yaws_rad], axis=0)

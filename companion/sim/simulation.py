@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.linalg
 
+from companion.config.checks import view_yaws_rad
 from companion.config.scenario import Scenario
 from companion.core.perception.blobs import BlobParams, blob_observations
 from companion.core.estimation.consistency import STATES, radius_2sigma_m
@@ -59,6 +60,8 @@ def make_navigator(scenario: Scenario, strategy: str | None = None,
     if est.sensor_fov_deg is None and est.sensor_max_range_m is None:    # the camera's own view
         est = dataclasses.replace(est, sensor_fov_deg=scenario.sensor.fov_deg,
                                   sensor_max_range_m=scenario.sensor.max_range_m)
+    if est.sensor_view_yaws_deg == (0.0,):                  # the rig's cameras (centres form)
+        est = dataclasses.replace(est, sensor_view_yaws_deg=scenario.sensor.view_yaws_deg)
     start = scenario.world.start
     pose = np.array([start.north_m, start.east_m, wrap_angle(start.yaw_rad)]) \
         if start_pose is None else np.array([start_pose[0], start_pose[1],
@@ -71,7 +74,9 @@ def make_navigator(scenario: Scenario, strategy: str | None = None,
                      dataclasses.replace(scenario.avoidance.union_params(scenario.sensor.fov_rad),
                                          sensor_range_m=scenario.sensor.max_range_m,
                                          perception_delay_s=perception_delay_s(est, scenario),
-                                         control_period_s=scenario.vehicle.dt_s),
+                                         control_period_s=scenario.vehicle.dt_s,
+                                         view_yaws_rad=view_yaws_rad(
+                                             scenario.sensor.view_yaws_deg)),
                      mover_params=est.mover_params(), options=est.options(),
                      limits=vehicle_limits(scenario), look_at=look_at_params(scenario),
                      goal_look=scenario.goal_look_params(), extent=extent_params(scenario),

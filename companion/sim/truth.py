@@ -73,6 +73,8 @@ class TruthWorld:
                 scenario, depth_rng if depth_rng is not None else np.random.default_rng(0))
         self.depth_sink = depth_sink
         self.rng = rng
+        # the centres form's rig: each camera's yaw on the body (one forward camera: (0.0,))
+        self.view_yaws_rad = tuple(math.radians(v) for v in scenario.sensor.view_yaws_deg)
         # heights have their own random source (the points' z, the altitude's noise, the floor's
         # returns), so a world without heights keeps its random stream as before
         self.vertical_rng = vertical_rng if vertical_rng is not None else np.random.default_rng(0)
@@ -331,7 +333,8 @@ class TruthWorld:
         for i, (oid, (d_north, d_east)) in enumerate(zip(self.obstacle_ids, offsets)):
             range_m = math.hypot(d_north, d_east)
             bearing = wrap_angle(math.atan2(d_east, d_north) - yaw)
-            if not is_visible(range_m, bearing, sensor.fov_rad, sensor.max_range_m):
+            if not is_visible(range_m, bearing, sensor.fov_rad, sensor.max_range_m,
+                              self.view_yaws_rad):
                 continue
             heights = self._seen_heights(range_m, self.obstacle_bases_m[i],
                                          self.obstacle_tops_m[i])

@@ -62,6 +62,13 @@ class UnionParams:
                                       # coasting tracks kept while unseeable near (evade.py)
     keep_near_tracks: bool = False    # a coasting mover track predicted near but out of view is
                                       # kept (movers.prune; with evade_movers always)
+    keep_tracks_horizon_s: float | None = None  # ... and one whose closest approach comes
+                                      # within d inside this (movers.approaching; None: off)
+    mover_max_speed_mps: float | None = None    # velocity choice: cruise no faster than a mover
+                                      # this fast met head-on at the range can be dodged
+                                      # (blind_side.dodge_speed_cap_mps; None: off)
+    view_yaws_rad: tuple[float, ...] = (0.0,)   # a rig of cameras of fov_rad each, by yaw on
+                                      # the body: what the camera sees (seen space, the keep)
     seen_speed_limit: bool = False    # velocity choice and path follower: never faster than the
                                       # vehicle stops in the space seen free, the loop's latency
                                       # counted; the last resort brakes sideways too (speed_limit.py)

@@ -32,6 +32,7 @@ from companion.core.avoidance.arc import (MAX_GROWTH_M, Motion, Rollout, clearan
 from companion.core.avoidance.evade import evasion_candidates, evasion_margins
 from companion.core.avoidance.guidance import (GuidanceCommand, GuidanceInputs, GuidanceParams,
                                                approach_speed, inflated_radius, toward_goal)
+from companion.core.avoidance.blind_side import dodge_speed_cap_mps
 from companion.core.avoidance import speed_limit
 from companion.core.avoidance.seen_space import SeenSpace
 from companion.core.avoidance.union import (MAX_SPREAD_M, Geometry, UnionParams, blocking,
@@ -79,6 +80,10 @@ def guide_flyable(inputs: GuidanceInputs, params: GuidanceParams,
     cruise = approach_speed(params, goal_distance)
     if union.sensor_range_m is not None:
         cruise = min(cruise, speed_limit.cruise_cap(union, params.safety_distance_m, motion))
+        if union.mover_max_speed_mps is not None:
+            cruise = min(cruise, dodge_speed_cap_mps(
+                union.sensor_range_m, params.safety_distance_m, motion.max_accel_mps2,
+                speed_limit.latency_s(motion, union), union.mover_max_speed_mps))
     reference = pose[2] if previous_heading_rad is None else previous_heading_rad
     radii = safety_radii(inputs, params)
     gaps = np.hypot(*(obstacles - pose[:2]).T) - radii if len(obstacles) else np.empty(0)

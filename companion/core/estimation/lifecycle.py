@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from companion.core.geometry import wrap_angles
+from companion.core.geometry import view_offsets_rad, wrap_angles
 
 TENTATIVE = "tentative"
 CONFIRMED = "confirmed"
@@ -52,6 +52,8 @@ class LifecycleParams:
     min_range_m: float = 1.0
     occluder_radius_m: float = 3.0        # a nearer landmark hides what lies within this of its ray
     tentative_in_guidance: bool = False   # see the class docstring
+    # a rig of cameras of fov_rad each, by their yaw on the body (rad; 0: the one forward camera)
+    view_yaws_rad: tuple[float, ...] = (0.0,)
 
     def __post_init__(self) -> None:
         if not 1 <= self.confirm_hits <= self.confirm_window:
@@ -91,7 +93,8 @@ def expected_visible(pose: np.ndarray, points: np.ndarray, params: LifecyclePara
     bearing = wrap_angles(np.arctan2(d[:, 1], d[:, 0]) - pose[2])
     inside = ((range_m >= params.min_range_m)
               & (range_m <= params.max_range_m - params.range_margin_m)
-              & (np.abs(bearing) <= 0.5 * params.fov_rad - params.edge_margin_rad))
+              & (view_offsets_rad(bearing, params.view_yaws_rad)
+                 <= 0.5 * params.fov_rad - params.edge_margin_rad))
     # the half angle each landmark hides behind it (all of the view when the vehicle is at it)
     half = np.arcsin(np.minimum(1.0, params.occluder_radius_m / np.maximum(range_m, 1e-9)))
     rows = inside.nonzero()[0]

@@ -85,6 +85,25 @@ def mover_spread(movers: list[MoverState], rows: int, sigmas: float,
     return spread if spread.any() else None
 
 
+def approaching(track: MoverState, vehicle_ne_m: np.ndarray, vehicle_vel_ne_mps: np.ndarray,
+                horizon_s: float, within_m: float, max_spread_m: float = 10.0) -> bool:
+    """Whether a track's predicted closest approach to the vehicle comes within ``within_m``
+    plus two sigma of its position's spread (at most ``max_spread_m``) inside ``horizon_s``,
+    for the vehicle flying on at its velocity or stopped (it may stop at any time: a mover it
+    flew past may still close on it). Whatever the camera's range: a track left behind out of
+    view, or beyond the range, is not forgotten while it may still meet the vehicle."""
+    gap = np.asarray(track.position_ne_m, dtype=float) - np.asarray(vehicle_ne_m, dtype=float)
+    spread = min(2.0 * math.sqrt(max(float(np.linalg.eigvalsh(track.position_cov)[-1]), 0.0)),
+                 max_spread_m)
+    for vehicle_vel in (np.asarray(vehicle_vel_ne_mps, dtype=float), np.zeros(2)):
+        rel = np.asarray(track.velocity_ne_mps, dtype=float) - vehicle_vel
+        speed2 = float(rel @ rel)
+        t_s = 0.0 if speed2 < 1e-12 else min(max(-float(gap @ rel) / speed2, 0.0), horizon_s)
+        if float(np.hypot(*(gap + t_s * rel))) <= within_m + spread:
+            return True
+    return False
+
+
 def world_measurement(pose: np.ndarray, pose_cov: np.ndarray, z: np.ndarray,
                       meas_cov: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """A range-bearing observation as a world point (2,) and its covariance (2,2)."""
@@ -185,14 +204,13 @@ class MoverTracker:
 
     def prune(self, t_s: float, keep=None) -> list[int]:
         """Delete tracks unseen for coast_s; returns their ids. ``keep``: a function of a track's
-        predicted position (2,) saying it must stay all the same (the navigator's: a track
+        predicted MoverState saying it must stay all the same (the navigator's: a track
         predicted near the vehicle but outside the camera's view, where it could not have been
         seen: deleting it forgets a mover that may be beside or behind the vehicle, issue 33)."""
         stale = [tid for tid, (_, last_t, _) in self._tracks.items()
                  if t_s - last_t > self.params.coast_s]
         if keep is not None:
-            stale = [tid for tid in stale
-                     if not keep(self.state(tid, t_s).position_ne_m)]
+            stale = [tid for tid in stale if not keep(self.state(tid, t_s))]
         for tid in stale:
             _, _, oid = self._tracks.pop(tid)
             self._updates.pop(tid, None)

@@ -26,7 +26,7 @@ from companion.core.avoidance.seen_space import SeenSpace
 from companion.core.avoidance.union import UnionParams, guide_union
 from companion.core.avoidance.velocity_choice import guide_flyable
 from companion.core.estimation.estimator import Estimator
-from companion.core.estimation.movers import mover_growth
+from companion.core.estimation.movers import approaching, mover_growth
 from companion.core.estimator_options import moderate
 from companion.core.geometry import is_visible, wrap_angle
 from companion.core.navigation.obstacle_view import ObstacleView
@@ -94,17 +94,38 @@ class Decider:
         """A camera frame: what the camera has in view now is seen (SeenSpace, FlankScan)."""
         slam = self.estimator.slam
         if self.seen is not None:
-            self.seen.mark(slam.pose)
+            if self.union.view_yaws_rad == (0.0,):
+                self.seen.mark(slam.pose)
+            else:                       # a rig: each camera's view from the same point
+                for yaw in self.union.view_yaws_rad:
+                    self.seen.mark(np.array([slam.pose[0], slam.pose[1], slam.pose[2] + yaw]))
         if self.scan is not None:
             self.scan.mark(self.estimator.clock_s, float(slam.pose[2]))
 
     def track_keeper(self):
-        """For movers.prune: the predicate that keeps a coasting track the camera cannot see
-        (``_unseeable_near``), a multicopter's only (a unicycle's flights stay as they were; the
-        same reason holds); None: none kept."""
-        keep = (self.union.keep_near_tracks or self.union.evade_movers) and self.limits is not None \
-            and self.limits.lateral_accel_limited and self.union.sensor_range_m is not None
-        return self._unseeable_near if keep else None
+        """For movers.prune: the predicate on a coasting track's MoverState that keeps it: the
+        camera cannot see it near (``_unseeable_near``), or with ``keep_tracks_horizon_s`` it
+        may still meet the vehicle (``_approaching``); a multicopter's only (a unicycle's
+        flights stay as they were; the same reason holds); None: none kept."""
+        copter = self.limits is not None and self.limits.lateral_accel_limited
+        near = (self.union.keep_near_tracks or self.union.evade_movers) and copter \
+            and self.union.sensor_range_m is not None
+        meets = copter and self.union.keep_tracks_horizon_s is not None
+        if near and meets:
+            return lambda track: self._unseeable_near(track.position_ne_m) \
+                or self._approaching(track)
+        if near:
+            return lambda track: self._unseeable_near(track.position_ne_m)
+        return self._approaching if meets else None
+
+    def _approaching(self, track) -> bool:
+        """A coasting track whose closest approach, the vehicle flying on or stopped, comes
+        within d inside ``keep_tracks_horizon_s`` (movers.approaching), whatever the range."""
+        pose = self.estimator.slam.pose
+        speed, course = self.estimator.velocity_now or (0.0, float(pose[2]))
+        velocity = speed * np.array([math.cos(course), math.sin(course)])
+        return approaching(track, pose[:2], velocity, self.union.keep_tracks_horizon_s,
+                           self.params.safety_distance_m)
 
     def _unseeable_near(self, position: np.ndarray) -> bool:
         """A coasting track predicted within the camera's range of the vehicle but outside its
@@ -115,7 +136,8 @@ class Decider:
         range_m = float(np.hypot(*gap))
         bearing = wrap_angle(math.atan2(gap[1], gap[0]) - float(pose[2]))
         return range_m <= self.union.sensor_range_m \
-            and not is_visible(range_m, bearing, self.union.fov_rad, self.union.sensor_range_m)
+            and not is_visible(range_m, bearing, self.union.fov_rad, self.union.sensor_range_m,
+                               self.union.view_yaws_rad)
 
     def obstacles(self, young_movers: bool = False):
         """The obstacle view's rows (ObstacleView.obstacles), inflated as ``params`` says."""
