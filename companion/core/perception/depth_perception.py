@@ -66,7 +66,7 @@ class DepthPerceptionParams:
         return replace(self.blob, range_sigma_m=self.range_floor_sigma_m,
                        range_sigma_k_per_m=stereo_k_per_m(self.subpixel_px, fx_px,
                                                           self.baseline_m),
-                       bearing_sigma_rad=1.0 / fx_px)
+                       bearing_sigma_rad=1.0 / fx_px, stretch_within_blob=True)
 
 
 @dataclass(frozen=True)
