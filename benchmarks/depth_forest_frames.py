@@ -62,7 +62,7 @@ def main() -> None:
                       args.radius)
     print(f"frames {q.frames}, observations per frame {q.observations_per_frame:.1f}, chain "
           f"points {q.chain_share:.0%}, trunks in view found {q.found_share:.0%}, largest chain "
-          f"stretch {q.max_stretch_m:.2f} m, largest chain range sigma within 16 m "
+          f"range sigma within 16 m "
           f"{q.max_chain_sigma_near_m:.2f} m")
     for (lo, hi), n, med, p90, bias in zip(RANGE_BANDS_M, q.posts, q.post_median_m,
                                            q.post_p90_m, q.post_range_bias_m):

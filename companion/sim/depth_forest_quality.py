@@ -35,7 +35,7 @@ class FrameQuality:
     """Over the frames: observations per frame; the share that are surface (chain) points; the
     posts' centre errors per range band (RANGE_BANDS_M: median, p90, signed range bias; NaN
     where none); of the trunks within IN_VIEW_M in view, the share with a post within FOUND_M;
-    the largest stretch a chain point claimed and its largest range sigma within 16 m."""
+    the largest range sigma of a chain point within 16 m (its spread included)."""
     frames: int
     observations_per_frame: float
     chain_share: float
@@ -44,7 +44,6 @@ class FrameQuality:
     post_range_bias_m: tuple
     posts: tuple
     found_share: float
-    max_stretch_m: float
     max_chain_sigma_near_m: float
 
 
@@ -70,7 +69,7 @@ def frame_quality(base: Scenario, params: DepthPerceptionParams, depth: DepthCon
     renderer, errors = DepthRenderer(intr), ErrorModel(intr, StereoErrors.of(depth))
     rng = np.random.default_rng([seed, 0xF4A3E])
     posts, chain, count, seen, found = [], 0, 0, 0, 0
-    stretch, chain_sigma = 0.0, 0.0
+    chain_sigma = 0.0
     for world in drawn:
         scene = scene_of(world, 0.0)
         for _ in range(frames):
@@ -89,7 +88,6 @@ def frame_quality(base: Scenario, params: DepthPerceptionParams, depth: DepthCon
                 gaps = np.hypot(*(trees - xy).T)
                 if isinstance(obs, SurfacePoint):
                     chain += 1
-                    stretch = max(stretch, obs.stretch_m)
                     if obs.range_m < 16.0:
                         chain_sigma = max(chain_sigma, math.sqrt(obs.meas_cov[0][0]))
                     continue
@@ -115,4 +113,4 @@ def frame_quality(base: Scenario, params: DepthPerceptionParams, depth: DepthCon
         bias.append(float(np.mean(band[:, 2])) if len(band) else math.nan)
     total = worlds * frames
     return FrameQuality(total, count / total, chain / max(count, 1), tuple(med), tuple(p90),
-                        tuple(bias), tuple(n), found / max(seen, 1), stretch, chain_sigma)
+                        tuple(bias), tuple(n), found / max(seen, 1), chain_sigma)
