@@ -50,7 +50,7 @@ class DepthPerceptionParams:
     range_floor_sigma_m: float = 0.05       # a choice: the nearest-of-a-bin's floor
     attitude_sigma_rad: float = 0.0035      # ATTITUDE's roll / pitch error (0.2 deg, a choice)
     blob: BlobParams = field(default_factory=BlobParams)  # its range sigmas are replaced
-    far_sigmas: float = 2.0                 # a post within this many range sigmas of the
+    far_sigmas: float = 2.0                 # an obstacle this many range sigmas short of the
                                             # image's max depth is dropped (0: none); a choice
 
     def __post_init__(self) -> None:
@@ -142,20 +142,18 @@ def perceive(frame: DepthFrame, mount: CameraMount, roll_rad: float, pitch_rad: 
 def _short_of_max_depth(observations: list[Observation], posts: list[Post], centre_rad: float,
                         max_depth_m: float, sigmas: float,
                         blobs: BlobParams) -> tuple[list[Observation], list[Post]]:
-    """The observations without the posts whose depth along the camera's heading lies within
-    ``sigmas`` range sigmas of the image's max depth. Nearer the limit, the pixels beyond it are
-    cut from the noise's far tail (no data past max_depth), so a surface's median there is
-    biased short: measured on rendered forests, -0.14 m at 18-20 m, -0.5 to -0.7 m beyond 20 m
-    horizontal, four times the bias within 16 m; such trunks, mapped, dragged the pose (NEES
-    11.6 on 12 forests). A wall's chain points are kept: a wall seen short is seen early, and
-    dropping them too lost a wall's far end (urban seed 8: 6.87 m from a surface, 9.64 m with
-    them kept)."""
+    """The observations (and posts) whose depth along the camera's heading lies at least
+    ``sigmas`` range sigmas short of the image's max depth. Nearer the limit, the pixels beyond
+    it are cut from the noise's far tail (no data past max_depth), so a surface's median there
+    is biased short: measured on rendered forests, -0.14 m at 18-20 m, -0.5 to -0.7 m beyond
+    20 m horizontal, four times the bias within 16 m; such landmarks, fused, dragged the pose
+    (NEES 11.6)."""
     limit = max_depth_m - sigmas * float(np.sqrt(blobs.range_var(max_depth_m)))
     keep_obs, keep_posts = [], []
     it = iter(posts)
     for obs in observations:
         post = None if isinstance(obs, SurfacePoint) else next(it)
-        if post is not None and obs.range_m * math.cos(obs.bearing_rad - centre_rad) > limit:
+        if obs.range_m * math.cos(obs.bearing_rad - centre_rad) > limit:
             continue
         keep_obs.append(obs)
         if post is not None:
