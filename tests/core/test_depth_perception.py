@@ -171,3 +171,31 @@ def test_a_camera_on_its_side_sees_a_post_on_the_right_on_the_right():
     assert len(got.posts) == 1
     assert math.degrees(got.posts[0].bearing_rad) == pytest.approx(bearing_deg(10.0, 3.0),
                                                                    abs=1.0)
+
+
+def test_a_trunk_half_hidden_by_a_nearer_one_is_surface_spread_over_its_own_width():
+    # A 0.2 m trunk at 15 m just behind the left edge of a nearer 0.3 m trunk: its visible part
+    # is a compact blob cut by the nearer one (no centre from its width), given as surface
+    # points. Each is spread over the trunk's own width (under a metre), not a wall's 4 m
+    # spacing: a landmark made from it must not swallow the trees around it (forest worlds: a
+    # 2.3 m sigma made every trunk within 5 m 'ambiguous' until it was 5 m away, issue 44).
+    near = Cylinder(8.0, 0.0, 0.3)
+    edge = math.atan2(0.3, 8.0)
+    far = Cylinder(15.0 * math.cos(edge), -15.0 * math.sin(edge) - 0.15, 0.2)
+    got = perceive(render([near, far]), CameraMount(), 0.0, 0.0, 5.0, PARAMS)
+    behind = [o for o in got.observations if o.range_m > 12.0]
+    assert behind and all(isinstance(o, SurfacePoint) for o in behind)
+    for obs in behind:
+        assert math.sqrt(obs.meas_cov[0][0]) < 1.0
+    assert any(not isinstance(o, SurfacePoint) and o.range_m < 9.0 for o in got.observations)
+
+
+def test_a_post_near_the_max_depth_is_dropped():
+    # D455 here: 20 m max depth, range sigma at 20 m 0.81 m: posts beyond 18.4 m are dropped
+    # (their pixels' far noise tail is cut at 20 m: a centre biased short).
+    near, far = Cylinder(15.0, -3.0, 0.3), Cylinder(19.0, 4.0, 0.3)
+    got = perceive(render([near, far]), CameraMount(), 0.0, 0.0, 5.0, PARAMS)
+    assert [round(p.range_m) for p in got.posts] == [15]
+    kept = perceive(render([near, far]), CameraMount(), 0.0, 0.0, 5.0,
+                    DepthPerceptionParams(far_sigmas=0.0))
+    assert len(kept.posts) == 2 and max(p.range_m for p in kept.posts) > 18.4

@@ -59,6 +59,8 @@ class BlobParams:
     corner_tolerance_m: float = 0.5      # a choice: 5 sigma of the 0.1 m range noise
     fit_min_bins: int = 5                # a circle fit needs this many bins (3 unknowns + 2 to spare)
     fit_inflation: float = 1.0
+    stretch_within_blob: bool = False    # a chain point's spread is no wider than its blob
+                                         # (depth perception; the sectors form keeps False)
 
     def __post_init__(self) -> None:
         if self.chain_spacing_m <= 0 or self.compact_width_m <= 0 or self.max_jump_m <= 0:
@@ -272,7 +274,15 @@ def _chain(ranges_m: np.ndarray, bearings_rad: np.ndarray, increment_rad: float,
     # nearer is no end of the surface: spread like the rest.
     fixed = set() if loose else set(anchors[1:-1]) | ({anchors[0]} if real_ends[0] else set()) \
         | ({anchors[-1]} if real_ends[1] else set())
-    spread = params.correlation_inflation * params.chain_spacing_m ** 2 / 12.0
+    stretch = params.chain_spacing_m
+    if params.stretch_within_blob:
+        # a blob narrower than the spacing (a trunk, or its part beside a nearer one) is spread
+        # over its own width, not chain_spacing_m of surface: its chord plus one bin at its
+        # range (what a landmark covers, ``stretch_m``, stays the chain's: surface_cover.py)
+        extent = float(np.hypot(*(points[-1] - points[0]))) \
+            + float(np.max(ranges_m)) * increment_rad
+        stretch = min(stretch, extent)
+    spread = params.correlation_inflation * stretch ** 2 / 12.0
     bin_var = params.correlation_inflation * increment_rad ** 2 / 12.0
     out = []
     for i in picked:

@@ -23,7 +23,7 @@ import numpy as np
 
 from companion.core.estimation.range_noise import stereo_k_per_m
 from companion.core.estimation.slam_types import Observation
-from companion.core.perception.blobs import BlobParams
+from companion.core.perception.blobs import BlobParams, SurfacePoint
 from companion.core.perception.depth_frame import CameraMount, DepthFrame
 from companion.core.perception.depth_obstacles import (BinnedSurface, Post, bin_surfaces,
                                                        surface_observations)
@@ -50,6 +50,8 @@ class DepthPerceptionParams:
     range_floor_sigma_m: float = 0.05       # a choice: the nearest-of-a-bin's floor
     attitude_sigma_rad: float = 0.0035      # ATTITUDE's roll / pitch error (0.2 deg, a choice)
     blob: BlobParams = field(default_factory=BlobParams)  # its range sigmas are replaced
+    far_sigmas: float = 2.0                 # an obstacle this many range sigmas short of the
+                                            # image's max depth is dropped (0: none); a choice
 
     def __post_init__(self) -> None:
         if self.decimation < 1 or self.min_support < 1:
@@ -66,7 +68,7 @@ class DepthPerceptionParams:
         return replace(self.blob, range_sigma_m=self.range_floor_sigma_m,
                        range_sigma_k_per_m=stereo_k_per_m(self.subpixel_px, fx_px,
                                                           self.baseline_m),
-                       bearing_sigma_rad=1.0 / fx_px)
+                       bearing_sigma_rad=1.0 / fx_px, stretch_within_blob=True)
 
 
 @dataclass(frozen=True)
@@ -126,12 +128,37 @@ def perceive(frame: DepthFrame, mount: CameraMount, roll_rad: float, pitch_rad: 
     binned = bin_surfaces(rest.xyz_m, rest.row, rest.rows, centre_rad, span_rad, bins,
                           blobs, params.min_support, params.surface_band_m)
     observations, posts = surface_observations(binned, blobs)
+    if params.far_sigmas > 0.0:
+        observations, posts = _short_of_max_depth(observations, posts, centre_rad,
+                                                  intr.max_depth_m, params.far_sigmas, blobs)
     ground_down_m = altitude_m if plane is None else plane.c
     if ground_down_m is not None:
         observations = [_bottom_on_floor(o, ground_down_m, params.ground_margin_m, blobs,
                                          params.attitude_sigma_rad) for o in observations]
     return DepthPercept(observations, posts, pts.count, int(floor.sum()), rest.count, pts.holes,
                         plane, binned)
+
+
+def _short_of_max_depth(observations: list[Observation], posts: list[Post], centre_rad: float,
+                        max_depth_m: float, sigmas: float,
+                        blobs: BlobParams) -> tuple[list[Observation], list[Post]]:
+    """The observations (and posts) whose depth along the camera's heading lies at least
+    ``sigmas`` range sigmas short of the image's max depth. Nearer the limit, the pixels beyond
+    it are cut from the noise's far tail (no data past max_depth), so a surface's median there
+    is biased short: measured on rendered forests, -0.14 m at 18-20 m, -0.5 to -0.7 m beyond
+    20 m horizontal, four times the bias within 16 m; such landmarks, fused, dragged the pose
+    (NEES 11.6)."""
+    limit = max_depth_m - sigmas * float(np.sqrt(blobs.range_var(max_depth_m)))
+    keep_obs, keep_posts = [], []
+    it = iter(posts)
+    for obs in observations:
+        post = None if isinstance(obs, SurfacePoint) else next(it)
+        if obs.range_m * math.cos(obs.bearing_rad - centre_rad) > limit:
+            continue
+        keep_obs.append(obs)
+        if post is not None:
+            keep_posts.append(post)
+    return keep_obs, keep_posts
 
 
 def _bottom_on_floor(obs: Observation, ground_down_m: float, margin_m: float, blobs: BlobParams,
