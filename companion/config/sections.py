@@ -67,7 +67,8 @@ class AvoidanceConfig:
     path_steady: bool = False             # the path search keeps to the way it followed last
                                           # (a new way costs half as much again a metre off it)
                                           # and its grid takes in the mapped trees beside it,
-                                          # up to 40 m either side (path_search.STEADY;
+                                          # up to 40 m either side, its cells free if a point
+                                          # within 0.25 m keeps the need (path_search.STEADY_PATH;
                                           # forest-dense: the way in flipped side to side)
     evade_movers: bool = False            # a multicopter's evasion of near movers: side-step,
                                           # back off or stop with the nose held

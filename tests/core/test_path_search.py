@@ -189,3 +189,23 @@ def test_a_kept_way_through_one_gap_is_kept_when_the_other_is_a_little_shorter()
     assert abs(crossing(fresh) - 5.0) < 1.0
     assert abs(crossing(held) + 6.0) < 1.0
     assert abs(crossing(unweighted) - 5.0) < 1.0
+
+
+def test_a_gap_whose_middle_falls_between_cell_centres_is_found_with_the_cell_slack():
+    # a gap keeping need + 0.05 m at its middle, east 0.25 m (between the 0.5 m cells' centres
+    # at 0 and 0.5, each 0.25 m off it and so short of the need): the default grid finds no way
+    # through it, the slack one does, and the path keeps d + the tight floor where it crosses
+    half = D + 0.1 + 0.05
+    wall = np.array([[10.0, 0.25 - half - k] for k in range(21)]
+                    + [[10.0, 0.25 + half + k] for k in range(21)])
+    radii = np.full(len(wall), D)
+    goal = np.array([30.0, 0.25])
+
+    def crossing(plan):
+        return plan.points_ne_m[np.argmin(np.abs(plan.points_ne_m[:, 0] - 10.0)), 1]
+
+    default = plan_path(np.zeros(2), goal, wall, radii, PathParams(side_max_m=40.0))
+    slack = plan_path(np.zeros(2), goal, wall, radii, STEADY_PATH)
+    assert default.found and abs(crossing(default)) > 15.0          # round an end of the wall
+    assert slack.found and abs(crossing(slack) - 0.25) <= 0.25
+    assert slack.margin_m >= 0.1 - 1e-9

@@ -78,6 +78,11 @@ class PathParams:
                                   # (0: off). Without it, forest-dense's way in flipped between
                                   # two sides as each side's trees were mapped (seed 0: 120 s
                                   # in the clearing, docs/results/speed-limit.md)
+    cell_slack_m: float = 0.0     # a cell is free if a point within this of its centre may keep
+                                  # the need (its centre keeps need - this): a gap whose middle
+                                  # falls between cell centres is not lost to the grid's
+                                  # resolution; the first leg and the follower's roll-out keep
+                                  # the need itself
     carrot_m: float = 8.0         # the first leg is at most this long (along the path)
     hold_m: float = 0.3           # path_follow.py: ... and must keep d + this (the flight's
                                   # tracking error, a trunk at the view's edge seen late)
@@ -85,10 +90,12 @@ class PathParams:
                                   # long, then braked (the path, not the roll-out, looks ahead)
 
 
-STEADY_PATH = PathParams(keep_weight=0.5, side_max_m=40.0)   # avoidance.path_steady (choice,
-# measured on forest-dense at 5 m/s, docs/results/speed-limit.md): half as much again is more
-# than a newly mapped tree's detour, less than a mapped wall's; 40 m takes in what a 20 m camera
-# maps either side of a flight along a barrier
+# avoidance.path_steady (choice, measured on forest-dense at 5 m/s, docs/results/speed-limit.md):
+# half as much again is more than a newly mapped tree's detour, less than a mapped wall's; 40 m
+# takes in what a 20 m camera maps either side of a flight along a barrier; a slack of half a
+# cell finds the gaps whose middle falls between the cells' centres (20 worlds: 0.40 -> 0.60
+# without it, 0.75 with it)
+STEADY_PATH = PathParams(keep_weight=0.5, side_max_m=40.0, cell_slack_m=0.25)
 
 
 @dataclass(frozen=True)
@@ -209,7 +216,7 @@ def _search(start_ne_m: np.ndarray, goal_ne_m: np.ndarray, obstacles: np.ndarray
     clear = _clearance_grid(us, vs, (obstacles - start) @ axis_u, (obstacles - start) @ axis_v,
                             radii, params.margin_m + params.comfort_m + cell).ravel()
     own = float(clearance_at(start[None, :], obstacles, radii)[0])
-    free = clear >= need
+    free = clear + params.cell_slack_m >= need
     if own < need + cell:
         # a vehicle already inside the margin may leave: near it, cells no deeper than it is
         # (less the grid's resolution: its cell's centre is not where it is)
