@@ -20,33 +20,22 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import connected_components
 
 ALONG_RAD = math.radians(5.0)
 
 
 def barriers(points_ne_m: np.ndarray, gap_m: float) -> list[np.ndarray]:
     """Indices of the points in each group joined by links shorter than ``gap_m`` (single
-    linkage)."""
-    n = len(points_ne_m)
-    if n == 0:
+    linkage: the connected components of the links, scipy.sparse.csgraph), each sorted, the
+    groups in the order of their first point."""
+    if len(points_ne_m) == 0:
         return []
     diff = points_ne_m[:, None, :] - points_ne_m[None, :, :]
     linked = np.einsum("ijk,ijk->ij", diff, diff) < gap_m * gap_m
-    label = np.full(n, -1)
-    groups = []
-    for start in range(n):
-        if label[start] >= 0:
-            continue
-        label[start] = len(groups)
-        stack, members = [start], []
-        while stack:
-            i = stack.pop()
-            members.append(i)
-            for j in np.flatnonzero(linked[i] & (label < 0)):
-                label[j] = label[start]
-                stack.append(int(j))
-        groups.append(np.array(sorted(members)))
-    return groups
+    count, labels = connected_components(csr_matrix(linked), directed=False)
+    return [np.flatnonzero(labels == k) for k in range(count)]
 
 
 def blocking_rows(position_ne_m: np.ndarray, obstacles_ne_m: np.ndarray, ahead_ne: np.ndarray,

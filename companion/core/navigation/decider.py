@@ -94,11 +94,8 @@ class Decider:
         """A camera frame: what the camera has in view now is seen (SeenSpace, FlankScan)."""
         slam = self.estimator.slam
         if self.seen is not None:
-            if self.union.view_yaws_rad == (0.0,):
-                self.seen.mark(slam.pose)
-            else:                       # a rig: each camera's view from the same point
-                for yaw in self.union.view_yaws_rad:
-                    self.seen.mark(np.array([slam.pose[0], slam.pose[1], slam.pose[2] + yaw]))
+            for yaw in self.union.view_yaws_rad:    # each camera's view (one: yaw 0)
+                self.seen.mark(np.array([slam.pose[0], slam.pose[1], slam.pose[2] + yaw]))
         if self.scan is not None:
             self.scan.mark(self.estimator.clock_s, float(slam.pose[2]))
 
@@ -282,7 +279,8 @@ class Decider:
         alt = float(self.estimator.altitude_m)
         to_goal = self.goal - pose[:2]
         ahead = to_goal / max(float(np.hypot(*to_goal)), 1e-9)
-        speed_now, course = self.estimator.velocity_now or (params.cruise_speed_mps, 0.0)
+        speed_now, course = self.estimator.velocity_now or (params.cruise_speed_mps,
+                                                             float(pose[2]))
         if speed_now < LOOK_COURSE_MIN_SPEED_MPS:
             course = float(pose[2])
         scored, results = [], []
