@@ -60,11 +60,8 @@ def frame_quality(base: Scenario, params: DepthPerceptionParams, depth: DepthCon
     seeds from ``seed``; trunk radii ``radius_m`` instead of the generator's if given)."""
     spec = FOREST_SPECS[kind]
     if radius_m is not None:
-        FOREST_SPECS[kind] = dataclasses.replace(spec, radius_m=tuple(radius_m))
-    try:
-        drawn = [forest_world(base, seed + w, kind).world for w in range(worlds)]
-    finally:
-        FOREST_SPECS[kind] = spec
+        spec = dataclasses.replace(spec, radius_m=tuple(radius_m))
+    drawn = [forest_world(base, seed + w, kind, spec).world for w in range(worlds)]
     intr = depth.intrinsics()
     renderer, errors = DepthRenderer(intr), ErrorModel(intr, StereoErrors.of(depth))
     rng = np.random.default_rng([seed, 0xF4A3E])

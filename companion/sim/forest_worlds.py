@@ -85,9 +85,11 @@ def poisson_disc(rng: np.random.Generator, lo: np.ndarray, hi: np.ndarray, count
     return np.array(points).reshape(-1, 2)
 
 
-def forest_world(base: Scenario, seed: int, kind: str = "forest") -> Scenario:
-    """A scenario like ``base`` flying a freshly drawn forest of ``kind`` (FOREST_SPECS)."""
-    spec = FOREST_SPECS[kind]
+def forest_world(base: Scenario, seed: int, kind: str = "forest",
+                 spec: ForestSpec | None = None) -> Scenario:
+    """A scenario like ``base`` flying a freshly drawn forest of ``kind`` (FOREST_SPECS), or of
+    ``spec`` in its place (a variant: depth_forest_quality.py's trunk radii)."""
+    spec = FOREST_SPECS[kind] if spec is None else spec
     rng = np.random.default_rng([seed, 0xF0257])       # independent of the run's noise stream
     leg = spec.leg_m
     lo = np.array([-spec.margin_m, -spec.corridor_half_width_m])

@@ -88,7 +88,8 @@ def mover_spread(movers: list[MoverState], rows: int, sigmas: float,
 def approaching(track: MoverState, vehicle_ne_m: np.ndarray, vehicle_vel_ne_mps: np.ndarray,
                 horizon_s: float, within_m: float, max_spread_m: float = 10.0) -> bool:
     """Whether a track's predicted closest approach to the vehicle comes within ``within_m``
-    plus two sigma of its position's spread (at most ``max_spread_m``) inside ``horizon_s``,
+    plus two sigma of its position's spread (at most ``max_spread_m``: the navigator gives the
+    guidance's own bound, union.MAX_SPREAD_M) inside ``horizon_s``,
     for the vehicle flying on at its velocity or stopped (it may stop at any time: a mover it
     flew past may still close on it). Whatever the camera's range: a track left behind out of
     view, or beyond the range, is not forgotten while it may still meet the vehicle."""

@@ -23,7 +23,7 @@ from companion.core.avoidance.look_at import (GoalLookParams, LookAtParams, goal
                                               threat_to_watch)
 from companion.core.avoidance.path_follow import guide_with_plan
 from companion.core.avoidance.seen_space import SeenSpace
-from companion.core.avoidance.union import UnionParams, guide_union
+from companion.core.avoidance.union import MAX_SPREAD_M, UnionParams, guide_union
 from companion.core.avoidance.velocity_choice import guide_flyable
 from companion.core.estimation.estimator import Estimator
 from companion.core.estimation.movers import approaching, mover_growth
@@ -122,7 +122,7 @@ class Decider:
         speed, course = self.estimator.velocity_now or (0.0, float(pose[2]))
         velocity = speed * np.array([math.cos(course), math.sin(course)])
         return approaching(track, pose[:2], velocity, self.union.keep_tracks_horizon_s,
-                           self.params.safety_distance_m)
+                           self.params.safety_distance_m, MAX_SPREAD_M)
 
     def _unseeable_near(self, position: np.ndarray) -> bool:
         """A coasting track predicted within the camera's range of the vehicle but outside its
