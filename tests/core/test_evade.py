@@ -133,3 +133,62 @@ def test_prune_keeps_a_coasting_track_the_camera_could_not_see():
     assert tracker.prune(31.0, keep=lambda position: True) == []
     assert len(tracker) == 1
     assert len(tracker.prune(31.0, keep=lambda position: False)) == 1
+
+
+def seen_with_sides() -> SeenSpace:
+    """What a rig of three 30 m cameras (forward, +-90 deg) flying north along east 0 from 80 m
+    south has seen: 30 m either side of the track, and ahead."""
+    seen = SeenSpace(FOV, 30.0)
+    for north in np.arange(-80.0, 0.1, 1.0):
+        for yaw in (0.0, 0.5 * math.pi, -0.5 * math.pi):
+            seen.mark(np.array([north, 0.0, yaw]))
+    return seen
+
+
+def test_side_step_is_checked_against_space_never_seen_over_the_latency_then_a_stop():
+    """Issue 46: a 5 m/s side-step held over copter-3cam.yaml's 6 s horizon reaches ~28 m aside,
+    beyond d of a side camera's 30 m, and the full-horizon check refused it while a 7 m/s mover
+    closed; what must hold is that the vehicle can still stop d short of space never seen after
+    the loop's latency (speed_limit.py's rule), which it can. A side-step that could not stop
+    so stays refused."""
+    from companion.core.avoidance.evade import evasion_margins
+    motion = LIMITS.motion(5.0, 0.0, 0.0)
+    east = np.array([0.5 * math.pi])
+    full = evasion_margins(np.zeros(2), motion, east, np.array([5.0]), 6.0, np.empty((0, 2)),
+                           np.empty(0), None, None, seen_with_sides(), 10.0)
+    latency = evasion_margins(np.zeros(2), motion, east, np.array([5.0]), 6.0, np.empty((0, 2)),
+                              np.empty(0), None, None, seen_with_sides(), 10.0, 1.0)
+    assert full[0] < 0.0 <= latency[0]
+    # the latency check is the roll-out of 1 s, then a stop, against d less the grid's cell
+    rolled = fly_strafe(np.zeros(2), motion, east, np.array([5.0]), 1.0)
+    seen = seen_with_sides()
+    need = 10.0 - seen.cell_m
+    assert latency[0] == pytest.approx(seen.margin(rolled.positions[0]).min() - need
+                                       - min(float(seen.margin(np.zeros((1, 2)))[0]) - need, 0.0))
+    # 20 m east of the track, 10 m from space never seen: a step further east is refused, one
+    # back west is not
+    sides = evasion_margins(np.array([0.0, 20.0]), motion, np.array([0.5, -0.5]) * math.pi,
+                            np.array([5.0, 5.0]), 6.0, np.empty((0, 2)), np.empty(0), None, None,
+                            seen, 10.0, 1.0)
+    assert sides[0] < 0.0 <= sides[1]
+
+
+@pytest.mark.parametrize("near_goal, wide, taken", [
+    (0.3, 2.0, "wide"),       # the heading nearest the goal keeps too little to spare: the wide
+    (0.3, 0.5, "wide"),       # none spares EVADE_SPARE_M: the one with the most margin
+    (1.5, 2.0, "near_goal"),  # both spare it: the union law's cost decides, as before
+])
+def test_an_evasion_nearer_the_goal_must_spare_a_margin(monkeypatch, near_goal, wide, taken):
+    headings, speeds = evasion_candidates(vc.GRID, 5.0)
+    toward = int(np.flatnonzero((headings == 0.0) & (speeds == 5.0))[0])     # the goal's way
+    aside = int(np.flatnonzero(np.isclose(headings, -0.5 * math.pi) & (speeds == 5.0))[0])
+
+    def margins(position, motion, h, s, *args):
+        m = np.full(len(h), -5.0)
+        m[toward], m[aside] = near_goal, wide
+        return m
+    monkeypatch.setattr(vc, "evasion_margins", margins)
+    first, _ = vc._evasion(np.zeros(2), LIMITS.motion(5.0, 0.0, 0.0), 0.0, 0.0, 0, 5.0,
+                           np.zeros((1, 2)), np.ones(1), np.ones((1, 2)), None, None, UNION, 10.0)
+    k = aside if taken == "wide" else toward
+    assert first == (headings[k], speeds[k], (wide if taken == "wide" else near_goal))

@@ -15,13 +15,18 @@ camera stays on the mover ahead), plus stopping (braking straight). Each is roll
 vehicle flies it (``fly_strafe``: the velocity moves toward the setpoint at max_accel as a vector
 for the horizon, then brakes to rest) and measured as every other candidate is (arc.clearance:
 movers at their predicted positions, their radius grown by their velocity's uncertainty). The
-camera does not look where a side-step or a back-off goes, so its path must also keep d from
-space never seen (seen_space.py), always, not only where the stopping distance exceeds d.
+forward camera does not look where a side-step or a back-off goes, so its path must also keep d
+from space never seen (seen_space.py), always, not only where the stopping distance exceeds d:
+flown for the loop's latency and then braked (speed_limit.py's rule: re-decided every period,
+the vehicle must still be able to stop short of what it has not seen), not held over the whole
+horizon, which refused a 5 m/s side-step that side cameras had seen room for (issue 46).
 
 How the velocity choice uses them (velocity_choice.choose_velocity, only with a mover among the
 obstacles and only for a multicopter; static worlds and the unicycle are flown as before):
 after every nose-led option (cruise down to a quarter, slow, stop) has failed, the first
-evasion whose margin is >= 0 in the order of the union law's cost; none: the evasion with the
+evasion in the order of the union law's cost whose margin is >= EVADE_SPARE_M (1 m), else the
+one with the most margin >= 0 (a thin margin nearer the goal is eaten by a mover's drift
+before it passes); none: the evasion with the
 most margin enters the last resort's comparison ("hold"), where a slower option wins ties of
 0.5 m. A stop (speed 0) is itself a candidate, so a stop that keeps d is preferred to any
 evasion whose clearance is in doubt (margin < 0 with the mover's uncertainty), and a side-step
@@ -73,14 +78,22 @@ def evasion_margins(position: np.ndarray, motion: Motion, headings: np.ndarray,
                     speeds: np.ndarray, horizon_s: float, obstacles: np.ndarray,
                     radii: np.ndarray, velocities: np.ndarray | None,
                     growth_mps: np.ndarray | None, seen: SeenSpace | None,
-                    safety_distance_m: float) -> np.ndarray:
+                    safety_distance_m: float, seen_horizon_s: float | None = None) -> np.ndarray:
     """(J,) each evasion's worst margin (m): from the obstacles (clearance, movers grown by their
     uncertainty) and, with a seen space, from space never seen (d less the grid's cell, as
-    velocity_choice._seen_margin, and less what the vehicle lacks of it already here)."""
+    velocity_choice._seen_margin, and less what the vehicle lacks of it already here).
+
+    ``seen_horizon_s``: the space-never-seen check rolls each setpoint out this long (the loop's
+    latency), then brakes: what must hold is that the vehicle, re-deciding every period, can
+    still stop d short of space never seen (speed_limit.py's rule). None: over ``horizon_s``,
+    as the obstacles (stricter: a 5 m/s side-step held 4 s reaches beyond a side camera's
+    range, and was refused for it while the mover closed)."""
     rolled = fly_strafe(position, motion, headings, speeds, horizon_s)
     margin = clearance(rolled, obstacles, radii, velocities, growth_mps, position)
     if seen is None:
         return margin
+    if seen_horizon_s is not None:
+        rolled = fly_strafe(position, motion, headings, speeds, seen_horizon_s)
     need = safety_distance_m - seen.cell_m
     now = float(seen.margin(position[None, :])[0]) - need
     unseen = seen.margin(rolled.positions.reshape(-1, 2)).reshape(rolled.positions.shape[:2])

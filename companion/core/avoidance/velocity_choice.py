@@ -43,6 +43,11 @@ SPEED_FRACTIONS = (1.0, 0.75, 0.5, 0.25)
 KEEP_TOLERANCE_M = 0.25    # the previous heading stays reachable down to d minus this: a choice
                            # on the edge of reachable must not flip every decision
 LOOK_PARTS = (1.0, 0.75, 0.5)  # a flank look's swing, then parts of it (flank_scan.py)
+EVADE_SPARE_M = 1.0       # an evasion nearer the goal is taken over a wider one only if its
+                          # roll-out keeps this much beyond the margin: the roll-out flies a
+                          # mover's predicted line, and a 7 m/s mover's 0.7 m/s drift eats a
+                          # thin margin in the 3 s it takes to pass (head-on-7, copter-3cam:
+                          # 0.89 -> 0.92; docs/results/movers-speed.md)
 BRAKE_ASIDE_TIE_M = 0.2   # with avoidance.speed_limit: a last resort braking aside must keep this
                           # much more clearance than the nose-led hold (speed_limit.py)
 FIRST_CHUNK = 32           # candidates rolled out before the rest (see _first_passing)
@@ -327,16 +332,22 @@ def _evasion(position: np.ndarray, motion: Motion, goal_heading: float, referenc
              velocities: np.ndarray, growth_mps: np.ndarray | None, seen: SeenSpace | None,
              union: UnionParams, d: float) -> tuple[tuple | None, tuple]:
     """The evasions (evade.py) as (heading, speed, margin): the first moving one by the union
-    law's cost (goal, hysteresis, side) whose margin is >= 0, or None; and the one with the most
-    margin, the stop winning ties of 0.5 m (less to go wrong), for the last resort."""
+    law's cost (goal, hysteresis, side) whose margin is >= EVADE_SPARE_M, else the moving one
+    with the most margin >= 0, else None; and the one with the most margin, the stop winning
+    ties of 0.5 m (less to go wrong), for the last resort. Space never seen is checked over
+    the loop's latency, then a stop (evade.evasion_margins)."""
     headings, speeds = evasion_candidates(GRID, cruise, union.seen_speed_limit)
     margin = evasion_margins(position, motion, headings, speeds, union.lookahead_s, obstacles,
-                             radii, velocities, growth_mps, seen, d)
+                             radii, velocities, growth_mps, seen, d,
+                             speed_limit.latency_s(motion, union))
     offset = wrap_angles(headings - goal_heading)
     cost = np.abs(offset) + union.hysteresis * np.abs(wrap_angles(headings - reference))
     if side:
         cost = cost + np.pi * (np.sign(offset) == -side)
     passing = np.flatnonzero(margin[1:] >= 0.0) + 1          # index 0 is the stop
+    spare = passing[margin[passing] >= EVADE_SPARE_M]
+    passing = spare if spare.size or not passing.size \
+        else passing[[int(np.argmax(margin[passing]))]]
     first = None
     if passing.size:
         k = int(passing[np.argmin(cost[passing])])
