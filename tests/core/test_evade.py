@@ -98,7 +98,7 @@ def test_stop_preferred_to_evasions_in_doubt(monkeypatch, stop, moving, expected
     def margins(position, motion, headings, speeds, *args):
         m = np.full(len(headings), -5.0)
         m[0] = stop
-        m[10] = moving
+        m[20] = moving
         return m
     monkeypatch.setattr(vc, "evasion_margins", margins)
     first, best = vc._evasion(np.zeros(2), LIMITS.motion(5.0, 0.0, 0.0), 0.0, 0.0, 0, 5.0,
@@ -106,10 +106,10 @@ def test_stop_preferred_to_evasions_in_doubt(monkeypatch, stop, moving, expected
                               10.0)
     headings, speeds = evasion_candidates(vc.GRID, 5.0)
     if moving >= 0.0:
-        assert first == (headings[10], speeds[10], moving)
+        assert first == (headings[20], speeds[20], moving)
     else:
         assert first is None
-        assert best[1] == (0.0 if expected == "stop" else speeds[10])
+        assert best[1] == (0.0 if expected == "stop" else speeds[20])
 
 
 def test_free_course_setpoint_jumps_and_holds_the_nose():
@@ -192,3 +192,24 @@ def test_an_evasion_nearer_the_goal_must_spare_a_margin(monkeypatch, near_goal, 
                            np.zeros((1, 2)), np.ones(1), np.ones((1, 2)), None, None, UNION, 10.0)
     k = aside if taken == "wide" else toward
     assert first == (headings[k], speeds[k], (wide if taken == "wide" else near_goal))
+
+
+@pytest.mark.parametrize("yaws_deg, widest_deg", [((0.0,), 90.0), ((0.0, 90.0, -90.0), 135.0)])
+def test_with_a_mover_an_evasion_backs_off_only_where_a_camera_looks(monkeypatch, yaws_deg,
+                                                                     widest_deg):
+    """The goal behind the nose, every evasion keeping its margin: with a mover among the
+    obstacles the one taken flies no farther off the nose than a side-step (90 deg) or the rig's
+    view (forward and both sides: 135 deg), since a mover may come from where no camera looks;
+    in a static world (the speed limit's brake aside) the seen-space check alone decides."""
+    monkeypatch.setattr(vc, "evasion_margins", lambda position, motion, h, s, *a: np.ones(len(h)))
+    union = UnionParams(lookahead_s=4.0, fov_rad=FOV, sensor_range_m=40.0,
+                        perception_delay_s=1.0, evade_movers=True,
+                        view_yaws_rad=tuple(math.radians(y) for y in yaws_deg))
+    motion = LIMITS.motion(5.0, 0.0, 0.0)
+    for mover_v, expected_off_deg in ((np.array([[-3.0, 0.0]]), widest_deg),
+                                      (np.zeros((1, 2)), 180.0)):
+        first, best = vc._evasion(np.zeros(2), motion, math.pi, math.pi, 0, 5.0,
+                                  np.array([[30.0, 0.0]]), np.array([10.0]), mover_v, None,
+                                  None, union, 10.0)
+        assert abs(math.degrees(first[0])) == pytest.approx(expected_off_deg)
+        assert abs(math.degrees(best[0])) <= expected_off_deg + 1e-9

@@ -335,11 +335,21 @@ def _evasion(position: np.ndarray, motion: Motion, goal_heading: float, referenc
     law's cost (goal, hysteresis, side) whose margin is >= EVADE_SPARE_M, else the moving one
     with the most margin >= 0, else None; and the one with the most margin, the stop winning
     ties of 0.5 m (less to go wrong), for the last resort. Space never seen is checked over
-    the loop's latency, then a stop (evade.evasion_margins)."""
+    the loop's latency, then a stop (evade.evasion_margins); with a mover among the obstacles,
+    only courses within some camera's view are candidates (_in_view)."""
     headings, speeds = evasion_candidates(GRID, cruise, union.seen_speed_limit)
     margin = evasion_margins(position, motion, headings, speeds, union.lookahead_s, obstacles,
                              radii, velocities, growth_mps, seen, d,
                              speed_limit.latency_s(motion, union))
+    if velocities is not None and np.any(velocities != 0.0):
+        # with movers near, an evasion backs off only where a camera looks: the seen-space
+        # check covers static space, and a mover may come from where none looks (copter-3cam
+        # traffic seed 58 backed off 175 deg off the nose, into the rig's blind tail, and met a
+        # crosser at 4.15 m). Side-steps (up to 90 deg) stay open to one forward camera: they
+        # are what the evasion is for (issue 33)
+        aside = np.abs(wrap_angles(headings - motion.nose_rad)) <= 0.5 * np.pi + 1e-9
+        margin = np.where(aside | _in_view(headings, motion.nose_rad, union) | (speeds <= 0.0),
+                          margin, -np.inf)
     offset = wrap_angles(headings - goal_heading)
     cost = np.abs(offset) + union.hysteresis * np.abs(wrap_angles(headings - reference))
     if side:
@@ -356,6 +366,14 @@ def _evasion(position: np.ndarray, motion: Motion, goal_heading: float, referenc
     if margin[0] >= margin[k] - 0.5:
         k = 0
     return first, (float(headings[k]), float(speeds[k]), float(margin[k]))
+
+
+def _in_view(headings: np.ndarray, nose_rad: float, union: UnionParams) -> np.ndarray:
+    """(K,) whether each course lies within some camera's view (the rig's yaws, each
+    ``union.fov_rad`` wide) with the nose at ``nose_rad``."""
+    off = np.stack([np.abs(wrap_angles(headings - nose_rad - yaw))
+                    for yaw in union.view_yaws_rad])
+    return off.min(axis=0) <= 0.5 * union.fov_rad + 1e-9
 
 
 def _first_passing(order: np.ndarray, skip: int, margin_of, offset: np.ndarray,
