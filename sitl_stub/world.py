@@ -469,6 +469,9 @@ def _parse_vehicle(r: _Reader) -> VehicleConfig:
         max_turn_rate_rad_s=math.radians(r.number("max_turn_rate_deg_s", minimum=0, strict_min=True)),
         max_accel_mps2=r.number("max_accel_mps2", minimum=0, strict_min=True),
         dt_s=r.number("dt_s", minimum=0, strict_min=True, maximum=1.0), kind=kind)
+    # companion simulate's truth may start cruising (the paper) or at rest; the stub's vehicle
+    # always starts at rest on the ground and takes off, so either value is what it does anyway
+    r.boolean("start_at_rest", False)
     r.finish()
     return cfg
 

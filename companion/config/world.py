@@ -196,6 +196,9 @@ class VehicleConfig:
     # the truth vehicle's climb and sink limit; simulate's vertical avoidance is bounded by it
     # (the service's would be by safety.max_vertical_speed_mps, of the same default)
     max_vertical_speed_mps: float = 2.5
+    # simulate: the truth starts at rest (hovering after take-off, as a real flight begins);
+    # false: already cruising along its yaw, as the paper's runs start
+    start_at_rest: bool = False
 
     def __post_init__(self) -> None:
         for key in ("speed_mps", "max_turn_rate_deg_s", "max_accel_mps2", "dt_s",

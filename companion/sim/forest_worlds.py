@@ -11,11 +11,14 @@ per ha, 2.9 m at 800 per ha) so that the count is always reached:
 - ``forest``: 400 trees per ha (one per 25 m^2, about 5 m apart: the mean nearest-neighbour
   distance is printed with each run), at least 3.5 m centre to centre;
 - ``forest-dense``: 800 per ha (one per 12.5 m^2), at least 2.5 m centre to centre
-  (AvoidBench's trees stand 2.5 to 6 m apart).
+  (AvoidBench's trees stand 2.5 to 6 m apart);
+- ``forest-near``: as ``forest``, but trees from 8 m of the start at any speed (issue 46: a
+  vehicle that starts cruising cannot stop short of them; one that starts at rest,
+  ``vehicle.start_at_rest``, as a real flight does after take-off, can).
 
 The start and the goal stand in small clearings: no tree within d + 3 m of either (the vehicle
 starts cruising, so at 10 m/s also none within the stopping distance ahead of the start, see
-``start_clearing_m``). The run summary prints the drawn density and spacing (``world_figures``).
+``start_clearing_m``; forest-near's start clearing is 8 m). The run summary prints the drawn density and spacing (``world_figures``).
 """
 from __future__ import annotations
 
@@ -43,18 +46,26 @@ class ForestSpec:
     corridor_half_width_m: float = 30.0    # 60 m wide
     margin_m: float = 10.0                 # trees also this far before the start and past the goal
     clearing_extra_m: float = 3.0          # no tree within d + this of the start or the goal
+    start_clearing_m: float | None = None  # no tree this close to the start (None: as
+                                           # start_clearing_m below)
 
 
 FOREST_SPECS = {
     "forest": ForestSpec(density_per_ha=400.0, min_spacing_m=3.5),
     "forest-dense": ForestSpec(density_per_ha=800.0, min_spacing_m=2.5),
+    # issue 46: trees from 8 m of the start, whatever the speed; a vehicle that starts cruising
+    # at 10 m/s cannot stop short of them, one that starts at rest (vehicle.start_at_rest) can
+    "forest-near": ForestSpec(density_per_ha=400.0, min_spacing_m=3.5, start_clearing_m=8.0),
 }
 MAX_TRIES_PER_TREE = 200
 
 
 def start_clearing_m(base: Scenario, spec: ForestSpec) -> float:
-    """No tree this close to the start: d + clearing_extra_m, or d + the stopping distance of a
-    vehicle that starts cruising (its perception delay, then braking), whichever is more."""
+    """No tree this close to the start: the spec's own clearing, else d + clearing_extra_m, or
+    d + the stopping distance of a vehicle that starts cruising (its perception delay, then
+    braking), whichever is more."""
+    if spec.start_clearing_m is not None:
+        return spec.start_clearing_m
     d = base.safety_distance_m
     stop = stopping_distance_m(base.vehicle.speed_mps,
                                perception_delay_s(base.estimator_config(), base),

@@ -82,7 +82,8 @@ class TruthWorld:
         self.altitude_m = start.alt_m
         self.vel_up_mps = 0.0
         self.pose = np.array([start.north_m, start.east_m, wrap_angle(start.yaw_rad)])
-        self.speed_mps = scenario.vehicle.speed_mps   # the paper starts already cruising
+        # the paper starts already cruising; vehicle.start_at_rest: from a hover
+        self.speed_mps = 0.0 if scenario.vehicle.start_at_rest else scenario.vehicle.speed_mps
         self.t_s = 0.0
         obstacles = scenario.world.obstacles
         self._obstacle_start = np.array([[o.north_m, o.east_m] for o in obstacles]).reshape(-1, 2)
