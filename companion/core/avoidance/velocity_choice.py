@@ -332,16 +332,22 @@ def _evasion(position: np.ndarray, motion: Motion, goal_heading: float, referenc
              velocities: np.ndarray, growth_mps: np.ndarray | None, seen: SeenSpace | None,
              union: UnionParams, d: float) -> tuple[tuple | None, tuple]:
     """The evasions (evade.py) as (heading, speed, margin): the first moving one by the union
-    law's cost (goal, hysteresis, side) whose margin is >= EVADE_SPARE_M, else the moving one
-    with the most margin >= 0, else None; and the one with the most margin, the stop winning
-    ties of 0.5 m (less to go wrong), for the last resort. Space never seen is checked over
-    the loop's latency, then a stop (evade.evasion_margins); with a mover among the obstacles,
-    only courses within some camera's view are candidates (_in_view)."""
+    law's cost (goal, hysteresis, side) whose margin is >= EVADE_SPARE_M (with a mover near;
+    else >= 0), else the moving one with the most margin >= 0, else None; and the one with the
+    most margin, the stop winning ties of 0.5 m (less to go wrong), for the last resort. With a
+    mover among the obstacles:
+    space never seen is checked over the loop's latency, then a stop (evade.evasion_margins),
+    a back-off beyond 90 deg of the nose must lie within some camera's view (_in_view), and the
+    spare applies; without one (the speed limit's brake aside in a static world), the first
+    passing by cost, space never seen checked over the whole horizon, as before."""
     headings, speeds = evasion_candidates(GRID, cruise, union.seen_speed_limit)
+    # the three rules marked (issue 46) are for evading movers; a static world's brake aside
+    # (the speed limit's last resort) is chosen as it was measured (docs/results/speed-limit.md)
+    movers = velocities is not None and bool(np.any(velocities != 0.0))
     margin = evasion_margins(position, motion, headings, speeds, union.lookahead_s, obstacles,
                              radii, velocities, growth_mps, seen, d,
-                             speed_limit.latency_s(motion, union))
-    if velocities is not None and np.any(velocities != 0.0):
+                             speed_limit.latency_s(motion, union) if movers else None)   # (1)
+    if movers:                                                                          # (2)
         # with movers near, an evasion backs off only where a camera looks: the seen-space
         # check covers static space, and a mover may come from where none looks (copter-3cam
         # traffic seed 58 backed off 175 deg off the nose, into the rig's blind tail, and met a
@@ -355,9 +361,10 @@ def _evasion(position: np.ndarray, motion: Motion, goal_heading: float, referenc
     if side:
         cost = cost + np.pi * (np.sign(offset) == -side)
     passing = np.flatnonzero(margin[1:] >= 0.0) + 1          # index 0 is the stop
-    spare = passing[margin[passing] >= EVADE_SPARE_M]
-    passing = spare if spare.size or not passing.size \
-        else passing[[int(np.argmax(margin[passing]))]]
+    if movers:                                                                          # (3)
+        spare = passing[margin[passing] >= EVADE_SPARE_M]
+        passing = spare if spare.size or not passing.size \
+            else passing[[int(np.argmax(margin[passing]))]]
     first = None
     if passing.size:
         k = int(passing[np.argmin(cost[passing])])
