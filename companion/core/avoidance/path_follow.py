@@ -92,14 +92,6 @@ def _along(pose: np.ndarray, heading_rad: float, cruise: float, obstacles: np.nd
     # (clearance() counts a circle it is inside by what the path loses beyond that)
     now = float(np.min(np.hypot(*(obstacles - position).T) - radii))
     need = min(hold_m, max(now, 0.0))
-    # space never seen: the hold too, less what the vehicle lacks of d from it here (at rest at
-    # the apex of its first view it lacks all of d, and against the full hold found no way on:
-    # forest.yaml started at rest crept 5 m in 11 s at 0.5 m/s)
-    unseen_need = hold_m
-    if seen is not None:
-        short = float(seen.margin(position[None, :])[0]) \
-            - speed_limit.seen_need_m(union, params.safety_distance_m, seen.cell_m)
-        unseen_need = min(hold_m, max(short, 0.0))
     headings = np.array([heading_rad + o for o in OFFSETS_RAD])
     headings = np.arctan2(np.sin(headings), np.cos(headings))
     wide = np.array([heading_rad + o for o in WIDE_OFFSETS_RAD])
@@ -120,7 +112,11 @@ def _along(pose: np.ndarray, heading_rad: float, cruise: float, obstacles: np.nd
         unseen = _unseen_margin(seen, position, motion, headings, speed, union,
                                 params.safety_distance_m)
         if unseen is not None:
-            margin = np.minimum(margin, unseen - unseen_need)
+            # the hold is a margin over the mapped circles; space never seen has d of its own,
+            # counted from what the vehicle lacks of it here: >= 0, as the velocity choice takes
+            # it (against the hold, a vehicle at rest at the apex of its first view, 0 by
+            # definition, found no way on and crept 5 m in 11 s at 0.5 m/s)
+            margin = np.minimum(margin, unseen)
         passing = np.flatnonzero(margin >= 0.0)
         if passing.size:
             heading = float(headings[passing[0]])
