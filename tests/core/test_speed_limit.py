@@ -136,27 +136,6 @@ def test_the_follower_keeps_turning_toward_the_wide_way_it_chose():
         assert math.degrees(command.heading_rad) == pytest.approx(expected_deg)
 
 
-def test_the_follower_moves_off_from_rest_at_the_apex_of_its_first_view():
-    """At rest where the first frame was taken (the apex of the seen wedge: 0 m from space
-    never seen, by definition), a mapped trunk 15 m ahead beside the leg: the follower flies
-    the leg. Against the hold it found no way on and crept 5 m in 11 s (forest.yaml started at
-    rest, 7 m/s): the space-never-seen margin is counted from what the vehicle lacks here, so
-    it must be >= 0, not >= the hold over the mapped circles."""
-    from companion.core.avoidance import path_follow
-    from companion.core.avoidance.guidance import GuidanceInputs
-    from companion.core.avoidance.path_search import PathParams
-    seen = SeenSpace(FOV, 20.0)
-    seen.mark(np.zeros(3))
-    trunks = np.array([[15.0, 4.0]])
-    union = replace(ON, path=PathParams())
-    inputs = GuidanceInputs(np.zeros(3), np.array([60.0, 0.0]), trunks,
-                            motion=LIMITS.motion(0.0, 0.0, 0.0), seen=seen)
-    command = path_follow._along(inputs.pose, 0.0, 6.92, trunks, np.full(1, D), PARAMS, union,
-                                 inputs, 0.3)
-    assert command is not None and command.mode == "path"
-    assert command.speed_mps > 3.0 and abs(command.heading_rad) < math.radians(10.0)
-
-
 def test_the_service_reads_the_key_over_the_shipped_config(tmp_path):
     """A user's one-key layer turns it on for `companion run`, with the setpoint period as the
     control period; a wrong value names the user's file and the key."""

@@ -108,16 +108,12 @@ def _along(pose: np.ndarray, heading_rad: float, cruise: float, obstacles: np.nd
         speed = cruise * fraction
         rolled = fly_out(position, motion, headings, np.full(len(headings), speed),
                          union.path.follow_s, union.fov_rad)
-        margin = clearance(rolled, obstacles, radii, velocities, growth, position) - need
+        margin = clearance(rolled, obstacles, radii, velocities, growth, position)
         unseen = _unseen_margin(seen, position, motion, headings, speed, union,
                                 params.safety_distance_m)
         if unseen is not None:
-            # the hold is a margin over the mapped circles; space never seen has d of its own,
-            # counted from what the vehicle lacks of it here: >= 0, as the velocity choice takes
-            # it (against the hold, a vehicle at rest at the apex of its first view, 0 by
-            # definition, found no way on and crept 5 m in 11 s at 0.5 m/s)
             margin = np.minimum(margin, unseen)
-        passing = np.flatnonzero(margin >= 0.0)
+        passing = np.flatnonzero(margin >= need)
         if passing.size:
             heading = float(headings[passing[0]])
             return GuidanceCommand(speed * turn_speed_factor(yaw, heading, union.fov_rad),
