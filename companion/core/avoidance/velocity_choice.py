@@ -43,11 +43,7 @@ SPEED_FRACTIONS = (1.0, 0.75, 0.5, 0.25)
 KEEP_TOLERANCE_M = 0.25    # the previous heading stays reachable down to d minus this: a choice
                            # on the edge of reachable must not flip every decision
 LOOK_PARTS = (1.0, 0.75, 0.5)  # a flank look's swing, then parts of it (flank_scan.py)
-EVADE_SPARE_M = 1.0       # an evasion nearer the goal is taken over a wider one only if its
-                          # roll-out keeps this much beyond the margin: the roll-out flies a
-                          # mover's predicted line, and a 7 m/s mover's 0.7 m/s drift eats a
-                          # thin margin in the 3 s it takes to pass (head-on-7, copter-3cam:
-                          # 0.89 -> 0.92; docs/results/movers-speed.md)
+EVADE_SPARE_M = 1.0       # with a mover near, an evasion nearer the goal keeps this over margin
 BRAKE_ASIDE_TIE_M = 0.2   # with avoidance.speed_limit: a last resort braking aside must keep this
                           # much more clearance than the nose-led hold (speed_limit.py)
 FIRST_CHUNK = 32           # candidates rolled out before the rest (see _first_passing)
@@ -332,30 +328,20 @@ def _evasion(position: np.ndarray, motion: Motion, goal_heading: float, referenc
              velocities: np.ndarray, growth_mps: np.ndarray | None, seen: SeenSpace | None,
              union: UnionParams, d: float) -> tuple[tuple | None, tuple]:
     """The evasions (evade.py) as (heading, speed, margin): the first moving one by the union
-    law's cost (goal, hysteresis, side) whose margin is >= EVADE_SPARE_M (with a mover near;
-    else >= 0), else the moving one with the most margin >= 0, else None; and the one with the
-    most margin, the stop winning ties of 0.5 m (less to go wrong), for the last resort. With a
-    mover among the obstacles:
-    space never seen is checked over the loop's latency, then a stop (evade.evasion_margins),
-    a back-off beyond 90 deg of the nose must lie within some camera's view (_in_view), and the
-    spare applies; without one (the speed limit's brake aside in a static world), the first
-    passing by cost, space never seen checked over the whole horizon, as before."""
+    law's cost (goal, hysteresis, side) whose margin is >= 0, or None; and the one with the most
+    margin, the stop winning ties of 0.5 m (less to go wrong), for the last resort. With a mover
+    near (issue 46): space never seen over the latency, then a stop; a back-off beyond 90 deg
+    of the nose only within a camera's view (a mover may come from where none looks: traffic
+    seed 58, 4.15 m); the first must spare EVADE_SPARE_M, else the widest is taken."""
     headings, speeds = evasion_candidates(GRID, cruise, union.seen_speed_limit)
-    # the three rules marked (issue 46) are for evading movers; a static world's brake aside
-    # (the speed limit's last resort) is chosen as it was measured (docs/results/speed-limit.md)
+    # (1)-(3) evade movers; a static world's brake aside (speed_limit) is chosen as measured
     movers = velocities is not None and bool(np.any(velocities != 0.0))
     margin = evasion_margins(position, motion, headings, speeds, union.lookahead_s, obstacles,
                              radii, velocities, growth_mps, seen, d,
                              speed_limit.latency_s(motion, union) if movers else None)   # (1)
     if movers:                                                                          # (2)
-        # with movers near, an evasion backs off only where a camera looks: the seen-space
-        # check covers static space, and a mover may come from where none looks (copter-3cam
-        # traffic seed 58 backed off 175 deg off the nose, into the rig's blind tail, and met a
-        # crosser at 4.15 m). Side-steps (up to 90 deg) stay open to one forward camera: they
-        # are what the evasion is for (issue 33)
-        aside = np.abs(wrap_angles(headings - motion.nose_rad)) <= 0.5 * np.pi + 1e-9
-        margin = np.where(aside | _in_view(headings, motion.nose_rad, union) | (speeds <= 0.0),
-                          margin, -np.inf)
+        margin = np.where(_in_view(headings, motion.nose_rad, union) | (speeds <= 0.0), margin,
+                          -np.inf)
     offset = wrap_angles(headings - goal_heading)
     cost = np.abs(offset) + union.hysteresis * np.abs(wrap_angles(headings - reference))
     if side:
@@ -376,11 +362,12 @@ def _evasion(position: np.ndarray, motion: Motion, goal_heading: float, referenc
 
 
 def _in_view(headings: np.ndarray, nose_rad: float, union: UnionParams) -> np.ndarray:
-    """(K,) whether each course lies within some camera's view (the rig's yaws, each
-    ``union.fov_rad`` wide) with the nose at ``nose_rad``."""
-    off = np.stack([np.abs(wrap_angles(headings - nose_rad - yaw))
-                    for yaw in union.view_yaws_rad])
-    return off.min(axis=0) <= 0.5 * union.fov_rad + 1e-9
+    """(K,) whether each course is a side-step (within 90 deg of the nose at ``nose_rad``) or
+    lies within some camera's view."""
+    seen = np.stack([np.abs(wrap_angles(headings - nose_rad - yaw))
+                     for yaw in union.view_yaws_rad]).min(axis=0)
+    return (np.abs(wrap_angles(headings - nose_rad)) <= 0.5 * np.pi + 1e-9) \
+        | (seen <= 0.5 * union.fov_rad + 1e-9)
 
 
 def _first_passing(order: np.ndarray, skip: int, margin_of, offset: np.ndarray,
