@@ -18,7 +18,8 @@ per ha, 2.9 m at 800 per ha) so that the count is always reached:
 
 The start and the goal stand in small clearings: no tree within d + 3 m of either (the vehicle
 starts cruising, so at 10 m/s also none within the stopping distance ahead of the start, see
-``start_clearing_m``; forest-near's start clearing is 8 m). The run summary prints the drawn density and spacing (``world_figures``).
+``start_clearing_m``; forest-near's start clearing is 8 m). The run summary prints the drawn
+density and spacing (``world_figures``).
 """
 from __future__ import annotations
 

@@ -21,11 +21,13 @@ UNION = UnionParams(lookahead_s=4.0, fov_rad=FOV, sensor_range_m=40.0, perceptio
                     evade_movers=True)
 
 
-def seen_behind() -> SeenSpace:
-    """What a camera flying north along east 0 from 80 m south has seen."""
-    seen = SeenSpace(FOV, 40.0)
+def seen_behind(range_m: float = 40.0, yaws: tuple = (0.0,)) -> SeenSpace:
+    """What cameras of ``range_m`` at ``yaws`` on the body (one forward camera by default),
+    flying north along east 0 from 80 m south, have seen."""
+    seen = SeenSpace(FOV, range_m)
     for north in np.arange(-80.0, 0.1, 1.0):
-        seen.mark(np.array([north, 0.0, 0.0]))
+        for yaw in yaws:
+            seen.mark(np.array([north, 0.0, yaw]))
     return seen
 
 
@@ -74,9 +76,7 @@ def test_head_on_mover_is_evaded_not_turned_in_place(monkeypatch):
 
 def test_evasion_never_flies_into_space_never_seen(monkeypatch):
     """Seen only straight behind: no side-step's path may leave d of seen space."""
-    seen = SeenSpace(FOV, 40.0)
-    for north in np.arange(-80.0, 0.1, 1.0):
-        seen.mark(np.array([north, 0.0, 0.0]))
+    seen = seen_behind()
     headings, speeds = evasion_candidates(vc.GRID, 5.0)
     from companion.core.avoidance.evade import evasion_margins
     margins = evasion_margins(np.zeros(2), LIMITS.motion(5.0, 0.0, 0.0), headings, speeds, 4.0,
@@ -136,13 +136,9 @@ def test_prune_keeps_a_coasting_track_the_camera_could_not_see():
 
 
 def seen_with_sides() -> SeenSpace:
-    """What a rig of three 30 m cameras (forward, +-90 deg) flying north along east 0 from 80 m
-    south has seen: 30 m either side of the track, and ahead."""
-    seen = SeenSpace(FOV, 30.0)
-    for north in np.arange(-80.0, 0.1, 1.0):
-        for yaw in (0.0, 0.5 * math.pi, -0.5 * math.pi):
-            seen.mark(np.array([north, 0.0, yaw]))
-    return seen
+    """A rig of three 30 m cameras (forward, +-90 deg): 30 m either side of the track, and
+    ahead."""
+    return seen_behind(30.0, (0.0, 0.5 * math.pi, -0.5 * math.pi))
 
 
 def test_side_step_is_checked_against_space_never_seen_over_the_latency_then_a_stop():

@@ -16,18 +16,19 @@ vehicle flies it (``fly_strafe``: the velocity moves toward the setpoint at max_
 for the horizon, then brakes to rest) and measured as every other candidate is (arc.clearance:
 movers at their predicted positions, their radius grown by their velocity's uncertainty). The
 forward camera does not look where a side-step or a back-off goes, so its path must also keep d
-from space never seen (seen_space.py), always, not only where the stopping distance exceeds d:
-flown for the loop's latency and then braked (speed_limit.py's rule: re-decided every period,
-the vehicle must still be able to stop short of what it has not seen), not held over the whole
-horizon, which refused a 5 m/s side-step that side cameras had seen room for (issue 46).
+from space never seen (seen_space.py), always, not only where the stopping distance exceeds d.
+With a mover near, that path is flown for the loop's latency and then braked (speed_limit.py's
+rule: re-decided every period, the vehicle must still be able to stop short of what it has not
+seen), not held over the whole horizon, which refused a 5 m/s side-step that side cameras had
+seen room for (issue 46); a static world's brake aside keeps the whole horizon.
 
 How the velocity choice uses them (velocity_choice.choose_velocity, only with a mover among the
 obstacles and only for a multicopter; static worlds and the unicycle are flown as before):
 after every nose-led option (cruise down to a quarter, slow, stop) has failed, the first
 evasion in the order of the union law's cost whose margin is >= EVADE_SPARE_M (1 m), else the
 one with the most margin >= 0 (a thin margin nearer the goal is eaten by a mover's drift
-before it passes); none: the evasion with the
-most margin enters the last resort's comparison ("hold"), where a slower option wins ties of
+before it passes); none: the evasion with the most margin enters the last resort's
+comparison ("hold"), where a slower option wins ties of
 0.5 m. A stop (speed 0) is itself a candidate, so a stop that keeps d is preferred to any
 evasion whose clearance is in doubt (margin < 0 with the mover's uncertainty), and a side-step
 is only taken over a stop when it keeps more clearance.
@@ -86,8 +87,8 @@ def evasion_margins(position: np.ndarray, motion: Motion, headings: np.ndarray,
     ``seen_horizon_s``: the space-never-seen check rolls each setpoint out this long (the loop's
     latency), then brakes: what must hold is that the vehicle, re-deciding every period, can
     still stop d short of space never seen (speed_limit.py's rule). None: over ``horizon_s``,
-    as the obstacles (stricter: a 5 m/s side-step held 4 s reaches beyond a side camera's
-    range, and was refused for it while the mover closed)."""
+    as the obstacles (stricter: a 5 m/s side-step held copter-3cam.yaml's 6 s reaches beyond a
+    side camera's range, and was refused for it while the mover closed)."""
     rolled = fly_strafe(position, motion, headings, speeds, horizon_s)
     margin = clearance(rolled, obstacles, radii, velocities, growth_mps, position)
     if seen is None:

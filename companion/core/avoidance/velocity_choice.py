@@ -335,7 +335,7 @@ def _evasion(position: np.ndarray, motion: Motion, goal_heading: float, referenc
     seed 58, 4.15 m); the first must spare EVADE_SPARE_M, else the widest is taken."""
     headings, speeds = evasion_candidates(GRID, cruise, union.seen_speed_limit)
     # (1)-(3) evade movers; a static world's brake aside (speed_limit) is chosen as measured
-    movers = velocities is not None and bool(np.any(velocities != 0.0))
+    movers = _evades(motion, velocities)
     margin = evasion_margins(position, motion, headings, speeds, union.lookahead_s, obstacles,
                              radii, velocities, growth_mps, seen, d,
                              speed_limit.latency_s(motion, union) if movers else None)   # (1)
