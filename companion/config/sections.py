@@ -69,7 +69,8 @@ class AvoidanceConfig:
                                           # and its grid takes in the mapped trees beside it,
                                           # up to 40 m either side, its cells free if a point
                                           # within 0.25 m keeps the need (path_search.STEADY_PATH;
-                                          # forest-dense: the way in flipped side to side)
+                                          # forest-dense: the way in flipped side to side),
+                                          # and the follower crawls a tight gap (0.5 m/s)
     evade_movers: bool = False            # a multicopter's evasion of near movers: side-step,
                                           # back off or stop with the nose held
                                           # (core/avoidance/evade.py; docs/copter-headon-failures.md)

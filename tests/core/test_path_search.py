@@ -1,5 +1,6 @@
 """The forests' path search (core/avoidance/path_search.py) and its follower (path_follow.py)."""
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -209,3 +210,35 @@ def test_a_gap_whose_middle_falls_between_cell_centres_is_found_with_the_cell_sl
     assert default.found and abs(crossing(default)) > 15.0          # round an end of the wall
     assert slack.found and abs(crossing(slack) - 0.25) <= 0.25
     assert slack.margin_m >= 0.1 - 1e-9
+
+
+def test_a_tight_gap_the_slack_found_is_crawled_through_keeping_d():
+    # a wall of posts 1 m apart 1.2 m ahead, its one gap keeping d + 0.03 m at its middle: below
+    # the tight floor (0.1), found by the cell slack. From rest, a quarter of cruise and faster
+    # keep less than the floor; the steady follower crawls through keeping d, the one without
+    # the crawl does not move toward it
+    half = D + 0.03
+    wall = np.array([[1.2, -half - k] for k in range(25)] + [[1.2, half + k] for k in range(25)])
+    params = GuidanceParams(5.0, D, 4.0, 1.25, 2.0)
+    union = UnionParams(lookahead_s=3.0, fov_rad=math.radians(87.0), path=STEADY_PATH)
+    inputs = _inputs(wall, speed=0.0)
+    crawl = guide_along_path(inputs, params, union)
+    assert crawl.mode == "path" and crawl.speed_mps == pytest.approx(STEADY_PATH.crawl_mps)
+    assert abs(crawl.heading_rad) < math.radians(10.0)
+    without = replace(union, path=replace(STEADY_PATH, crawl_mps=None))
+    held = guide_along_path(inputs, params, without)
+    assert held.speed_mps == 0.0 or abs(held.heading_rad) > math.radians(20.0)
+
+
+@pytest.mark.parametrize("short_m, middle_m", [(0.05, 0.25), (0.14, 0.0)])
+def test_the_cell_slack_does_not_take_a_gap_narrower_than_the_need(short_m, middle_m):
+    # a gap keeping need - short_m at its middle, between the cells' centres or on one (0.14:
+    # d - 0.04, forest-dense seed 18's): the slack grid goes round an end of the wall, as the
+    # default one does, instead of leading the follower to a gap it cannot enter
+    half = D + 0.1 - short_m
+    wall = np.array([[10.0, middle_m - half - k] for k in range(21)]
+                    + [[10.0, middle_m + half + k] for k in range(21)])
+    plan = plan_path(np.zeros(2), np.array([30.0, middle_m]), wall, np.full(len(wall), D),
+                     STEADY_PATH)
+    crossing = plan.points_ne_m[np.argmin(np.abs(plan.points_ne_m[:, 0] - 10.0)), 1]
+    assert plan.found and abs(crossing) > 15.0

@@ -9,7 +9,8 @@
    a quarter of it, fastest first: the first command whose roll-out (arc.py: turn and speed limits,
    then a stop) keeps every safety distance, and d from space never seen where the stopping
    distance exceeds d, as the velocity choice checks its own (``_unseen_margin``);
-   then, at the slowest, headings up to 90 degrees either side of the leg;
+   then (``crawl_mps``, path_steady) a crawl along the leg keeping d + ``squeeze_m``;
+   then, at a quarter of cruise, headings up to 90 degrees either side of the leg;
 3. none: a stop turning toward the leg, if stopping keeps d and the leg is beyond the view or
    the vehicle still moves (it brakes before anything else decides);
 4. none, or no path at all: the velocity choice decides, with the leg's direction as its goal
@@ -103,9 +104,13 @@ def _along(pose: np.ndarray, heading_rad: float, cruise: float, obstacles: np.nd
         # (forest seeds 4 at 7 m/s and 49 at 10 m/s: 60 s in place, +90 and -60 degrees apart)
         wide = wide[np.argsort(np.abs(np.remainder(wide - previous + math.pi, 2.0 * math.pi)
                                       - math.pi), kind="stable")]
-    for fraction, headings in [(f, headings) for f in SPEED_FRACTIONS] \
-            + [(SPEED_FRACTIONS[-1], wide)]:
-        speed = cruise * fraction
+    tries = [(cruise * f, headings, need) for f in SPEED_FRACTIONS]
+    crawl, squeeze = union.path.crawl_mps, union.path.squeeze_m
+    if crawl is not None and crawl < cruise * SPEED_FRACTIONS[-1]:
+        # a quarter of cruise rolls out past a short first leg, and a gap the search's cell
+        # slack found may keep less than the search's need: at a crawl, d + squeeze_m will do
+        tries.append((crawl, headings, need if squeeze is None else min(need, squeeze)))
+    for speed, headings, need in tries + [(cruise * SPEED_FRACTIONS[-1], wide, need)]:
         rolled = fly_out(position, motion, headings, np.full(len(headings), speed),
                          union.path.follow_s, union.fov_rad)
         margin = clearance(rolled, obstacles, radii, velocities, growth, position)

@@ -31,6 +31,9 @@ obstacles to the goal, and the vehicle flies its first leg.
   dense forest every cell ahead is costed by the comfort band: the cheapest "path" left the
   grid behind the vehicle, which flew back out of the forest and in again for 200 s); no such
   path: from every edge cell, as before (a dead end is left the way it was entered).
+- The cell slack (``cell_slack_m``): a cell short of the need by less than it is free too
+  (a gap's middle between the cells' centres), unless the segment between two circles whose
+  gap keeps less than the need crosses it: every point of that segment is short of the need.
 
 Pure numpy/scipy; positions north/east metres, headings LOCAL_NED yaw (rad).
 """
@@ -83,6 +86,8 @@ class PathParams:
                                   # falls between cell centres is not lost to the grid's
                                   # resolution; the first leg and the follower's roll-out keep
                                   # the need itself
+    crawl_mps: float | None = None   # path_follow.py: after a quarter of cruise, this slow
+    squeeze_m: float | None = None   # along the leg, keeping d + this (None: as fast ones)
     carrot_m: float = 8.0         # the first leg is at most this long (along the path)
     hold_m: float = 0.3           # path_follow.py: ... and must keep d + this (the flight's
                                   # tracking error, a trunk at the view's edge seen late)
@@ -94,8 +99,12 @@ class PathParams:
 # half as much again is more than a newly mapped tree's detour, less than a mapped wall's; 40 m
 # takes in what a 20 m camera maps either side of a flight along a barrier; a slack of half a
 # cell finds the gaps whose middle falls between the cells' centres (20 worlds: 0.40 -> 0.60
-# without it, 0.75 with it)
-STEADY_PATH = PathParams(keep_weight=0.5, side_max_m=40.0, cell_slack_m=0.25)
+# without it, 0.75 with it), but not a gap between two circles narrower than the need; a crawl
+# of 0.5 m/s rolls out 0.55 m (a quarter of 5 m/s, 1.6 m: past a tight path's short first leg),
+# keeping d + 0.05 m (the search's gaps keep d + 0.1 m at their middle; the straight leg crosses
+# them off it). docs/results/speed-limit.md, "Dense forest, stuck in tight gaps"
+STEADY_PATH = PathParams(keep_weight=0.5, side_max_m=40.0, cell_slack_m=0.25, crawl_mps=0.5,
+                         squeeze_m=0.05)
 
 
 @dataclass(frozen=True)
@@ -216,7 +225,12 @@ def _search(start_ne_m: np.ndarray, goal_ne_m: np.ndarray, obstacles: np.ndarray
     clear = _clearance_grid(us, vs, (obstacles - start) @ axis_u, (obstacles - start) @ axis_v,
                             radii, params.margin_m + params.comfort_m + cell).ravel()
     own = float(clearance_at(start[None, :], obstacles, radii)[0])
-    free = clear + params.cell_slack_m >= need
+    free = clear >= need
+    if params.cell_slack_m > 0.0:
+        # not across a gap narrower than the need (forest-dense seed 18 at 5 m/s: the slack
+        # led through a gap keeping d - 0.04 m, which the follower, keeping d, never entered)
+        free |= (clear + params.cell_slack_m >= need) & ~_closed_gaps(
+            us, vs, (obstacles - start) @ axis_u, (obstacles - start) @ axis_v, radii, need)
     if own < need + cell:
         # a vehicle already inside the margin may leave: near it, cells no deeper than it is
         # (less the grid's resolution: its cell's centre is not where it is)
@@ -294,6 +308,30 @@ def _search(start_ne_m: np.ndarray, goal_ne_m: np.ndarray, obstacles: np.ndarray
         if np.hypot(*(carrot - start)) > 1e-9 else math.atan2(axis_u[1], axis_u[0])
     return PlannedPath(True, points, carrot, heading, float(steps.sum()), float(dist[goal_node]),
                        keeps)
+
+
+def _closed_gaps(us: np.ndarray, vs: np.ndarray, obstacle_u: np.ndarray,
+                 obstacle_v: np.ndarray, radii: np.ndarray, need: float) -> np.ndarray:
+    """(rows x cols,) the cells that a segment between two circles whose gap keeps less than
+    ``need`` crosses (sampled every tenth of a cell): every point of such a segment is short of
+    the need, whatever the cells' centres read."""
+    closed = np.zeros((len(us), len(vs)), dtype=bool)
+    if len(radii) < 2:
+        return closed.ravel()
+    cell = us[1] - us[0] if len(us) > 1 else 1.0
+    centres = np.stack([obstacle_u, obstacle_v], axis=1)
+    apart = np.hypot(*(centres[:, None, :] - centres[None, :, :]).transpose(2, 0, 1))
+    first, second = np.nonzero(np.triu(apart < radii[:, None] + radii[None, :] + 2.0 * need, 1))
+    if first.size == 0:
+        return closed.ravel()
+    samples = int(math.ceil(float(apart[first, second].max()) / (0.1 * cell))) + 1
+    t = np.linspace(0.0, 1.0, samples)[None, :, None]
+    points = centres[first][:, None, :] + t * (centres[second] - centres[first])[:, None, :]
+    rows = np.rint((points[..., 0] - us[0]) / cell).astype(int).ravel()
+    cols = np.rint((points[..., 1] - vs[0]) / cell).astype(int).ravel()
+    inside = (rows >= 0) & (rows < len(us)) & (cols >= 0) & (cols < len(vs))
+    closed[rows[inside], cols[inside]] = True
+    return closed.ravel()
 
 
 def _sides(start: np.ndarray, axis_u: np.ndarray, axis_v: np.ndarray, reach: float,
