@@ -110,7 +110,7 @@ def _along(pose: np.ndarray, heading_rad: float, cruise: float, obstacles: np.nd
         # a quarter of cruise rolls out past a short first leg, and a gap the search's cell
         # slack found may keep less than the search's need: at a crawl, d + squeeze_m will do
         tries.append((crawl, headings, need if squeeze is None else min(need, squeeze)))
-    for speed, headings, need in tries + [(cruise * SPEED_FRACTIONS[-1], wide, need)]:
+    for speed, headings, keep in tries + [(cruise * SPEED_FRACTIONS[-1], wide, need)]:
         rolled = fly_out(position, motion, headings, np.full(len(headings), speed),
                          union.path.follow_s, union.fov_rad)
         margin = clearance(rolled, obstacles, radii, velocities, growth, position)
@@ -118,7 +118,7 @@ def _along(pose: np.ndarray, heading_rad: float, cruise: float, obstacles: np.nd
                                 params.safety_distance_m)
         if unseen is not None:
             margin = np.minimum(margin, unseen)
-        passing = np.flatnonzero(margin >= need)
+        passing = np.flatnonzero(margin >= keep)
         if passing.size:
             heading = float(headings[passing[0]])
             return GuidanceCommand(speed * turn_speed_factor(yaw, heading, union.fov_rad),

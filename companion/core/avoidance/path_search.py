@@ -222,15 +222,16 @@ def _search(start_ne_m: np.ndarray, goal_ne_m: np.ndarray, obstacles: np.ndarray
         near = np.hypot(*(obstacles - (start + 0.5 * reach * axis_u)).T) - radii \
             < span + params.comfort_m
         obstacles, radii = obstacles[near], radii[near]
-    clear = _clearance_grid(us, vs, (obstacles - start) @ axis_u, (obstacles - start) @ axis_v,
-                            radii, params.margin_m + params.comfort_m + cell).ravel()
+    obstacle_u, obstacle_v = (obstacles - start) @ axis_u, (obstacles - start) @ axis_v
+    clear = _clearance_grid(us, vs, obstacle_u, obstacle_v, radii,
+                            params.margin_m + params.comfort_m + cell).ravel()
     own = float(clearance_at(start[None, :], obstacles, radii)[0])
     free = clear >= need
     if params.cell_slack_m > 0.0:
         # not across a gap narrower than the need (forest-dense seed 18 at 5 m/s: the slack
         # led through a gap keeping d - 0.04 m, which the follower, keeping d, never entered)
         free |= (clear + params.cell_slack_m >= need) & ~_closed_gaps(
-            us, vs, (obstacles - start) @ axis_u, (obstacles - start) @ axis_v, radii, need)
+            us, vs, obstacle_u, obstacle_v, radii, need)
     if own < need + cell:
         # a vehicle already inside the margin may leave: near it, cells no deeper than it is
         # (less the grid's resolution: its cell's centre is not where it is)
