@@ -136,6 +136,37 @@ def test_the_follower_keeps_turning_toward_the_wide_way_it_chose():
         assert math.degrees(command.heading_rad) == pytest.approx(expected_deg)
 
 
+def test_the_follower_leaves_its_first_view_from_rest():
+    """Started at rest, the camera has seen one view: the vehicle stands at its apex, about d
+    from space never seen behind it. Every roll-out begins in the vehicle's own cell, so none
+    keeps the path's hold (0.3 m) beyond d from that space; the follower takes off along the leg
+    keeping what the vehicle has here (forest-near at rest, seeds 8, 10, 13, 19: 120 s turning
+    in place). A leg out of the view still turns first, and a vehicle short of d still gains."""
+    from companion.core.avoidance import path_follow
+    from companion.core.avoidance.guidance import GuidanceInputs
+    from companion.core.avoidance.path_search import PathParams
+    seen = SeenSpace(FOV, 20.0)
+    for yaw_deg in (-40.0, 0.0, 40.0):                       # the nose swung, as in those flights
+        seen.mark(np.array([0.0, 0.0, math.radians(yaw_deg)]))
+    here = float(seen.margin(np.zeros((1, 2)))[0])
+    assert D <= here < D + 0.3                               # at the apex: short of the hold
+    trunks = np.array([[15.0, 6.0]])
+    union = replace(ON, path=PathParams())
+    inputs = GuidanceInputs(np.zeros(3), np.array([60.0, 0.0]), trunks,
+                            motion=LIMITS.motion(0.0, 0.0, 0.0), seen=seen)
+    command = path_follow._along(inputs.pose, 0.0, 7.0, trunks, np.full(1, D), PARAMS, union,
+                                 inputs, 0.3)
+    assert command is not None and command.mode == "path" and command.speed_mps > 0.0
+    assert abs(command.heading_rad) <= math.radians(10.0)
+    behind = path_follow._along(inputs.pose, math.pi, 7.0, trunks, np.full(1, D), PARAMS, union,
+                                inputs, 0.3)
+    assert behind is None or behind.speed_mps == 0.0 or \
+        abs(math.remainder(behind.heading_rad - math.pi, 2 * math.pi)) > math.radians(90.0)
+    assert path_follow._unseen_room(seen, np.zeros(2), union, D) == pytest.approx(here - D)
+    assert path_follow._unseen_room(seen, np.array([-30.0, 0.0]), union, D) == 0.0
+    assert path_follow._unseen_room(None, np.zeros(2), union, D) == math.inf
+
+
 def test_the_service_reads_the_key_over_the_shipped_config(tmp_path):
     """A user's one-key layer turns it on for `companion run`, with the setpoint period as the
     control period; a wrong value names the user's file and the key."""
