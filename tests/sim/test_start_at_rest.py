@@ -2,7 +2,7 @@
 forest whose trees stand from 8 m of the start could not be flown at 10 m/s by any law (a 1 s
 perception delay and braking at 2.5 m/s^2 need ~30 m). A real flight starts from a hover after
 take-off: ``vehicle.start_at_rest`` starts the truth at rest, and the speed limit from what has
-been seen (speed_limit: seen) then lets it gather speed only as fast as it could stop. (Off in
+been seen (speed_limit: seen) then lets it gather speed only as fast as it could stop. (On in
 forest.yaml, measured: docs/results/speed-limit.md "Trees near the start".)"""
 import dataclasses
 from pathlib import Path
@@ -28,7 +28,7 @@ def forest(at_rest: bool):
 
 
 def test_the_truth_starts_at_rest_with_the_key():
-    assert load_scenario(FOREST).vehicle.start_at_rest is False
+    assert load_scenario(FOREST).vehicle.start_at_rest is True
     rest = TruthWorld(forest(True), np.random.default_rng(0))
     cruising = TruthWorld(forest(False), np.random.default_rng(0))
     assert rest.speed_mps == 0.0 and not np.any(rest.vel_ne_mps)
@@ -41,7 +41,7 @@ def test_the_truth_starts_at_rest_with_the_key():
 
 def test_start_at_rest_must_be_true_or_false_for_the_companion_and_the_stub(tmp_path):
     stub_load_scenario(FOREST)          # the stub's vehicle starts at rest anyway: accepted
-    text = FOREST.read_text().replace("start_at_rest: false", "start_at_rest: 3")
+    text = FOREST.read_text().replace("start_at_rest: true", "start_at_rest: 3")
     bad = tmp_path / "forest.yaml"
     bad.write_text(text)
     with pytest.raises(ConfigError, match="start_at_rest") as error:
