@@ -34,6 +34,7 @@ from companion.core.avoidance.arc import clearance, fly_out
 from companion.core.avoidance.guidance import (GuidanceCommand, GuidanceInputs, GuidanceParams,
                                                approach_speed, toward_goal)
 from companion.core.avoidance.path_search import PlannedPath, plan_path
+from companion.core.avoidance.seen_space import SeenSpace
 from companion.core.avoidance import speed_limit
 from companion.core.avoidance.union import UnionParams, turn_speed_factor
 from companion.core.avoidance.velocity_choice import _unseen_margin, guide_flyable, safety_radii
@@ -135,7 +136,7 @@ def _along(pose: np.ndarray, heading_rad: float, cruise: float, obstacles: np.nd
     return None
 
 
-def _unseen_room(seen, position: np.ndarray, union: UnionParams, d: float) -> float:
+def _unseen_room(seen: SeenSpace | None, position: np.ndarray, union: UnionParams, d: float) -> float:
     """How far beyond its need from space never seen the vehicle is here (0 if short of it, inf
     without a seen space). A way on keeps no more than that of the hold: every roll-out begins
     in the vehicle's own cell, so none gains on it, and a vehicle started at rest at its first
