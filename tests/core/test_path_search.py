@@ -5,7 +5,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from companion.core.avoidance.arc import VehicleLimits
+from companion.core.avoidance.arc import VehicleLimits, clearance, fly_out
 from companion.core.avoidance.guidance import GuidanceInputs, GuidanceParams
 from companion.core.avoidance.path_follow import guide_along_path
 from companion.core.avoidance.path_search import (STEADY_PATH, PathParams, clearance_at,
@@ -214,20 +214,28 @@ def test_a_gap_whose_middle_falls_between_cell_centres_is_found_with_the_cell_sl
 
 def test_a_tight_gap_the_slack_found_is_crawled_through_keeping_d():
     # a wall of posts 1 m apart 1.2 m ahead, its one gap keeping d + 0.03 m at its middle: below
-    # the tight floor (0.1), found by the cell slack. From rest, a quarter of cruise and faster
-    # keep less than the floor; the steady follower crawls through keeping d, the one without
-    # the crawl does not move toward it
+    # the tight floor (0.1), found by the cell slack. From rest, with 1 s roll-outs, a quarter of
+    # cruise and faster keep less than the floor; the steady follower crawls through keeping d,
+    # the one without the crawl does not move toward it. With path_steady's half-second
+    # roll-outs it sets off faster, its stop still short of the gap's narrowest
     half = D + 0.03
     wall = np.array([[1.2, -half - k] for k in range(25)] + [[1.2, half + k] for k in range(25)])
     params = GuidanceParams(5.0, D, 4.0, 1.25, 2.0)
-    union = UnionParams(lookahead_s=3.0, fov_rad=math.radians(87.0), path=STEADY_PATH)
+    whole_second = replace(STEADY_PATH, follow_s=1.0)
+    union = UnionParams(lookahead_s=3.0, fov_rad=math.radians(87.0), path=whole_second)
     inputs = _inputs(wall, speed=0.0)
     crawl = guide_along_path(inputs, params, union)
     assert crawl.mode == "path" and crawl.speed_mps == pytest.approx(STEADY_PATH.crawl_mps)
     assert abs(crawl.heading_rad) < math.radians(10.0)
-    without = replace(union, path=replace(STEADY_PATH, crawl_mps=None))
+    without = replace(union, path=replace(whole_second, crawl_mps=None))
     held = guide_along_path(inputs, params, without)
     assert held.speed_mps == 0.0 or abs(held.heading_rad) > math.radians(20.0)
+    steady = guide_along_path(inputs, params, replace(union, path=STEADY_PATH))
+    assert steady.mode == "path" and steady.speed_mps > STEADY_PATH.crawl_mps
+    assert abs(steady.heading_rad) < math.radians(10.0)
+    rolled = fly_out(np.zeros(2), inputs.motion, np.array([steady.heading_rad]),
+                     np.array([steady.speed_mps]), STEADY_PATH.follow_s, union.fov_rad)
+    assert clearance(rolled, wall, np.full(len(wall), D))[0] >= 0.0
 
 
 @pytest.mark.parametrize("short_m, middle_m", [(0.05, 0.25), (0.14, 0.0)])

@@ -167,6 +167,32 @@ def test_the_follower_leaves_its_first_view_from_rest():
     assert path_follow._unseen_room(None, np.zeros(2), union, D) == math.inf
 
 
+def test_the_steady_follower_rolls_out_half_a_second_before_its_stop():
+    """A trunk 5.5 m ahead on the leg (the path bends round it): held a whole second and then
+    braked, half of cruise runs 3.75 m and comes within d + 0.3 m of it, so a 1 s roll-out
+    crawls at a quarter (dense forest at 5 m/s: 1.25 m/s among trunks 2.9 m apart, time-outs).
+    path_steady holds a command half a second, five decision periods: half of cruise passes,
+    its stop still keeps d + 0.3 m, and three quarters still does not."""
+    from companion.core.avoidance import path_follow
+    from companion.core.avoidance.guidance import GuidanceInputs
+    from companion.core.avoidance.path_search import STEADY_PATH
+    trunks = np.array([[5.5, 0.0]])
+    motion = LIMITS.motion(2.5, 0.0, 0.0)
+    inputs = GuidanceInputs(np.zeros(3), np.array([60.0, 0.0]), trunks, motion=motion)
+    speeds = {}
+    for follow_s in (1.0, STEADY_PATH.follow_s):
+        union = replace(ON, path=replace(STEADY_PATH, follow_s=follow_s))
+        command = path_follow._along(inputs.pose, 0.0, 5.0, trunks, np.full(1, D), PARAMS,
+                                     union, inputs, 0.3)
+        assert command.mode == "path" and command.heading_rad == 0.0
+        speeds[follow_s] = command.speed_mps
+        for speed, kept in ((command.speed_mps, True), (command.speed_mps + 1.25, False)):
+            rolled = fly_out(np.zeros(2), motion, np.zeros(1), np.full(1, speed), follow_s, FOV)
+            assert (clearance(rolled, trunks, np.full(1, D))[0] >= 0.3) == kept
+    assert STEADY_PATH.follow_s == 0.5
+    assert speeds == {1.0: 1.25, 0.5: 2.5}
+
+
 def test_the_service_reads_the_key_over_the_shipped_config(tmp_path):
     """A user's one-key layer turns it on for `companion run`, with the setpoint period as the
     control period; a wrong value names the user's file and the key."""

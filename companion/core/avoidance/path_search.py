@@ -100,11 +100,16 @@ class PathParams:
 # takes in what a 20 m camera maps either side of a flight along a barrier; a slack of half a
 # cell finds the gaps whose middle falls between the cells' centres (20 worlds: 0.40 -> 0.60
 # without it, 0.75 with it), but not a gap between two circles narrower than the need; a crawl
-# of 0.5 m/s rolls out 0.55 m (a quarter of 5 m/s, 1.6 m: past a tight path's short first leg),
-# keeping d + 0.05 m (the search's gaps keep d + 0.1 m at their middle; the straight leg crosses
-# them off it). docs/results/speed-limit.md, "Dense forest, stuck in tight gaps"
+# of 0.5 m/s rolled out 0.55 m in 1 s (a quarter of 5 m/s, 1.6 m: past a tight path's short
+# first leg), keeping d + 0.05 m (the search's gaps keep d + 0.1 m at their middle; the straight
+# leg crosses them off it). docs/results/speed-limit.md, "Dense forest, stuck in tight gaps".
+# A command is rolled out half a second before its stop, not a whole one: five decision
+# periods, the next decision brakes for a mapped trunk long before; a trunk not yet mapped is
+# the unseen check's, with the perception delay (1 s at 5 m/s in a dense forest: 2.5 m/s rolled
+# out 3.75 m, rarely a straight line among trunks 2.9 m apart; "Dense forest, the follower's
+# roll-out")
 STEADY_PATH = PathParams(keep_weight=0.5, side_max_m=40.0, cell_slack_m=0.25, crawl_mps=0.5,
-                         squeeze_m=0.05)
+                         squeeze_m=0.05, follow_s=0.5)
 
 
 @dataclass(frozen=True)
