@@ -136,7 +136,8 @@ def _along(pose: np.ndarray, heading_rad: float, cruise: float, obstacles: np.nd
     return None
 
 
-def _unseen_room(seen: SeenSpace | None, position: np.ndarray, union: UnionParams, d: float) -> float:
+def _unseen_room(seen: SeenSpace | None, position: np.ndarray, union: UnionParams,
+                 d: float) -> float:
     """How far beyond its need from space never seen the vehicle is here (0 if short of it, inf
     without a seen space). A way on keeps no more than that of the hold: every roll-out begins
     in the vehicle's own cell, so none gains on it, and a vehicle started at rest at its first
