@@ -39,6 +39,7 @@ import math
 
 import numpy as np
 
+from companion.core.avoidance import speed_limit
 from companion.core.avoidance.arc import STEP_S, Motion, Rollout, accel_limited_step, clearance
 from companion.core.avoidance.seen_space import SeenSpace
 
@@ -93,12 +94,12 @@ def evasion_margins(position: np.ndarray, motion: Motion, headings: np.ndarray,
     margin = clearance(rolled, obstacles, radii, velocities, growth_mps, position)
     if seen is None:
         return margin
-    if seen_horizon_s is not None:
-        rolled = fly_strafe(position, motion, headings, speeds, seen_horizon_s)
-    need = safety_distance_m - seen.cell_m
-    now = float(seen.margin(position[None, :])[0]) - need
-    unseen = seen.margin(rolled.positions.reshape(-1, 2)).reshape(rolled.positions.shape[:2])
-    return np.minimum(margin, unseen.min(axis=1) - need - min(now, 0.0))
+    unseen = speed_limit.unseen_margins(
+        seen, position,
+        lambda fly_s: rolled.positions if fly_s == horizon_s
+        else fly_strafe(position, motion, headings, speeds, fly_s).positions,
+        horizon_s if seen_horizon_s is None else seen_horizon_s, safety_distance_m - seen.cell_m)
+    return np.minimum(margin, unseen)
 
 
 def evasion_candidates(headings: np.ndarray, cruise_mps: float,

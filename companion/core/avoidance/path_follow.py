@@ -138,12 +138,14 @@ def _along(pose: np.ndarray, heading_rad: float, cruise: float, obstacles: np.nd
 
 def _unseen_room(seen: SeenSpace | None, position: np.ndarray, union: UnionParams,
                  d: float) -> float:
-    """How far beyond its need from space never seen the vehicle is here (0 if short of it, inf
-    without a seen space). A way on keeps no more than that of the hold: every roll-out begins
-    in the vehicle's own cell, so none gains on it, and a vehicle started at rest at its first
-    view's apex (1.83 m from unseen space behind, d 1.8 m) found no way on and swung its nose
-    in place for 120 s (forest-near at rest, seeds 8, 10, 13, 19): the obstacles' own rule."""
+    """How far beyond its need from space not seen the vehicle is here, the worst over the seen
+    grid's views (speed_limit.unseen_margins; 0 if short of it, inf without a seen space). A
+    way on keeps no more than that of the hold: every roll-out begins in the vehicle's own
+    cell, so none gains on it, and a vehicle started at rest at its first view's apex (1.83 m
+    from unseen space behind, d 1.8 m) found no way on and swung its nose in place for 120 s
+    (forest-near at rest, seeds 8, 10, 13, 19): the obstacles' own rule."""
     if seen is None:
         return math.inf
     need = speed_limit.seen_need_m(union, d, seen.cell_m)
-    return max(float(seen.margin(position[None, :])[0]) - need, 0.0)
+    here = min(float(grid.margin(position[None, :])[0]) for _, grid in seen.views())
+    return max(here - need, 0.0)

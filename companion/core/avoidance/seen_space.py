@@ -9,6 +9,13 @@ ignored) as seen, and ``margin`` tells how far points are from the nearest cell 
 a command is flyable only if, flown for the time a new obstacle takes to enter the decision and
 then braked to a stop, it keeps d from unseen space (velocity_choice.py).
 
+Seen is not yet mapped: an obstacle first in view at a frame stays out of the decision for the
+perception delay (tentative until confirmed). With ``recent_s`` (that delay) the grid keeps its
+state as of each frame of the last ``recent_s`` (``views``), and a command must also keep d, flown
+for the latency less the frame's age, from what had not been seen by then (speed_limit.py): a
+trunk in space swept a frame before, not yet mapped, was passed at 0.94 d (forest-near at 10 m/s,
+seed 7).
+
 Pure numpy and scipy; positions north/east metres, angles radians.
 """
 from __future__ import annotations
@@ -18,31 +25,71 @@ import math
 import numpy as np
 from scipy.ndimage import distance_transform_edt
 
+from collections import deque
+
 from companion.core.geometry import wrap_angle
 
 CELL_M = 2.0
 GROW_CELLS = 64                  # the grid grows by at least this many cells when it must
 
 
+class SeenGrid:
+    """The grid as of one frame: ``margin`` of points from the cells not seen by then."""
+
+    def __init__(self, origin: np.ndarray, seen: np.ndarray, cell_m: float,
+                 field: np.ndarray | None) -> None:
+        self.origin, self.seen, self.cell_m, self.field = origin, seen, cell_m, field
+
+    def margin(self, points_ne_m: np.ndarray) -> np.ndarray:
+        """(...,) each point's distance (m) to the nearest cell not seen; 0 in unseen cells and
+        outside the grid."""
+        if self.seen.size == 0:
+            return np.zeros(points_ne_m.shape[:-1])
+        if self.field is None:
+            # distance from each seen cell's centre to the nearest unseen cell's edge
+            padded = np.pad(self.seen, 1)
+            self.field = distance_transform_edt(padded)[1:-1, 1:-1] * self.cell_m \
+                - 0.5 * self.cell_m
+        index = np.floor((points_ne_m - self.origin) / self.cell_m).astype(int)
+        inside = (index >= 0).all(axis=-1) & (index < np.array(self.seen.shape)).all(axis=-1)
+        clipped = np.clip(index, 0, np.array(self.seen.shape) - 1)
+        values = self.field[clipped[..., 0], clipped[..., 1]]
+        return np.where(inside, np.maximum(values, 0.0), 0.0)
+
+
 class SeenSpace:
     """Cells the camera has had in view. ``margin`` answers in metres."""
 
     def __init__(self, fov_rad: float, range_m: float, cell_m: float = CELL_M,
-                 keep_m: float | None = None) -> None:
+                 keep_m: float | None = None, recent_s: float | None = None) -> None:
         """``keep_m`` (None: keep everything): cells farther than this from the camera (along
         either axis) are forgotten, as never seen, whenever the grid has grown to twice that
         box: the grid, and the distance transform every frame, stay bounded on a long route (a
-        forgotten cell only lowers the margin of points near it, never raises one)."""
+        forgotten cell only lowers the margin of points near it, never raises one).
+        ``recent_s`` (None: none kept): the grid as of each frame, marked with its time, of the
+        last recent_s before the latest frame is kept (``views``)."""
         self.fov_rad = fov_rad
         self.range_m = range_m
         self.cell_m = cell_m
         self.keep_m = keep_m
+        self.recent_s = recent_s
         self._origin = np.zeros(2)                     # world position of cell (0, 0)'s corner
         self._seen = np.zeros((0, 0), dtype=bool)
-        self._field: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        self._now: SeenGrid | None = None              # the grid as of the latest mark
+        self._t_s: float | None = None                 # the latest frame's time
+        self._frames: deque[tuple[float, SeenGrid]] = deque()   # older frames', oldest first
 
-    def mark(self, pose: np.ndarray) -> None:
-        """One camera frame from ``pose`` (north, east, yaw): its field of view is seen."""
+    def views(self) -> list[tuple[float, SeenGrid]]:
+        """(age s, grid): the grid now (age 0), then as of each kept frame, newest first, with
+        its age behind the latest frame."""
+        older = [(self._t_s - t_s, grid) for t_s, grid in reversed(self._frames)]
+        return [(0.0, self._grid())] + older
+
+    def mark(self, pose: np.ndarray, t_s: float | None = None) -> None:
+        """One camera frame from ``pose`` (north, east, yaw): its field of view is seen. ``t_s``:
+        the frame's time (kept with ``recent_s``; the cameras of one frame share it)."""
+        if self.recent_s is not None and t_s is not None:
+            self._keep_frame(t_s)
         x, y, yaw = float(pose[0]), float(pose[1]), float(pose[2])
         r, cell = self.range_m, self.cell_m
         self._cover(np.array([x - r, y - r]), np.array([x + r, y + r]))
@@ -59,9 +106,20 @@ class SeenSpace:
         # a cell counts once its centre is in view, or it holds the camera itself
         view = (dist <= r) & ((off <= 0.5 * self.fov_rad) | (dist <= cell))
         self._seen[lo_i:hi_i, lo_j:hi_j] |= view
-        self._field = None
+        self._now = None
         if self.keep_m is not None:
             self._forget_far(np.array([x, y]))
+
+    def _keep_frame(self, t_s: float) -> None:
+        """Before a new frame's first mark: keep the grid as of the frame before (its cells
+        are marked into a copy from now on), and forget frames recent_s older than this."""
+        if self._t_s is not None and t_s != self._t_s:
+            self._frames.append((self._t_s, self._grid()))
+            self._seen = self._seen.copy()
+            self._now = None
+        self._t_s = t_s
+        while self._frames and t_s - self._frames[0][0] >= self.recent_s:
+            self._frames.popleft()
 
     def _view_box(self, x: float, y: float, yaw: float,
                   box: tuple[int, int, int, int]) -> tuple[int, int, int, int]:
@@ -115,18 +173,13 @@ class SeenSpace:
     def margin(self, points_ne_m: np.ndarray) -> np.ndarray:
         """(...,) each point's distance (m) to the nearest cell never seen; 0 in unseen cells
         and outside the grid."""
-        if self._seen.size == 0:
-            return np.zeros(points_ne_m.shape[:-1])
-        if self._field is None:
-            # distance from each seen cell's centre to the nearest unseen cell's edge
-            padded = np.pad(self._seen, 1)
-            self._field = distance_transform_edt(padded)[1:-1, 1:-1] * self.cell_m \
-                - 0.5 * self.cell_m
-        index = np.floor((points_ne_m - self._origin) / self.cell_m).astype(int)
-        inside = (index >= 0).all(axis=-1) & (index < np.array(self._seen.shape)).all(axis=-1)
-        clipped = np.clip(index, 0, np.array(self._seen.shape) - 1)
-        values = self._field[clipped[..., 0], clipped[..., 1]]
-        return np.where(inside, np.maximum(values, 0.0), 0.0)
+        return self._grid().margin(points_ne_m)
+
+    def _grid(self) -> SeenGrid:
+        """The grid as of the latest mark (its distance field computed once, when asked)."""
+        if self._now is None:
+            self._now = SeenGrid(self._origin, self._seen, self.cell_m, None)
+        return self._now
 
 
 def _sector_extent(yaw_rad: float, half_rad: float) -> tuple[float, float, float, float]:

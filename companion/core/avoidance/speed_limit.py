@@ -22,12 +22,25 @@ candidates: the velocity setpoint set at once, the nose held), scored by the sam
 clearance as every candidate: a multicopter can brake away from a trunk rather than straight
 along its velocity.
 
+Seen is not mapped yet: an obstacle first in view at a frame enters the decision at most the
+perception delay less a frame's period later (the lifecycle confirms it at the latest on the
+confirm window's last frame; the delay counts the whole window, ``confirm_window / rate``). So
+every space not seen as of a frame of the last delay (the seen grid's ``views``) is unseen space
+for a command flown for the latency less that frame's age behind the latest (``unseen_margins``):
+what stood in cells first seen at the next frame is braked for no later than that. Flying
+straight this is the cap's rule again (the space seen a frame ago ends a frame's flight nearer,
+and is braked for a frame's period sooner); turning, it keeps d from space swept but not mapped.
+
 Pure maths; speeds m/s, distances m, times s.
 """
 from __future__ import annotations
 
+from typing import Callable
+
+import numpy as np
+
 from companion.core.avoidance.arc import Motion, stopping_distance_m
-from companion.core.avoidance.seen_space import CELL_M
+from companion.core.avoidance.seen_space import CELL_M, SeenSpace
 from companion.core.avoidance.union import UnionParams, sensed_speed_limit
 
 
@@ -75,3 +88,19 @@ def applies(speed_mps: float, motion: Motion, union: UnionParams,
     (a stop included: a vehicle still moving may coast into unseen space); without, only where
     the stopping distance exceeds d."""
     return union.seen_speed_limit or stopping_m(speed_mps, motion, union) > safety_distance_m
+
+
+def unseen_margins(seen: SeenSpace, position: np.ndarray, roll: Callable[[float], np.ndarray],
+                   fly_s: float, need_m: float) -> np.ndarray:
+    """(J,) how far each command's braked path keeps beyond ``need_m`` from space not seen,
+    less what the vehicle lacks of it already here; the worst over the seen grid's views: the
+    space never seen with the command flown ``fly_s`` (the latency) before braking, and the
+    space not seen as of each kept frame with it flown that frame's age less.
+    ``roll(fly_s)``: the commands' positions (J, steps, 2), flown fly_s and then braked."""
+    worst = None
+    for age_s, grid in seen.views():
+        positions = roll(max(fly_s - age_s, 0.0))
+        now = float(grid.margin(position[None, :])[0]) - need_m
+        margin = grid.margin(positions).min(axis=-1) - need_m - min(now, 0.0)
+        worst = margin if worst is None else np.minimum(worst, margin)
+    return worst

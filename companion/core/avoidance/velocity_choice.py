@@ -424,12 +424,12 @@ def _unseen_margin(seen: SeenSpace | None, position: np.ndarray, motion: Motion,
 def _seen_margin(seen: SeenSpace, position: np.ndarray, motion: Motion, headings: np.ndarray,
                  speed: float, union: UnionParams, d: float) -> np.ndarray:
     """(J,) how far each command, flown until a new obstacle would enter the decision and then
-    braked, stays beyond d from space never seen (less what it lacks already here)."""
-    rolled = fly_out(position, motion, headings, np.full(len(headings), speed),
-                     speed_limit.latency_s(motion, union), union.fov_rad)
-    need = speed_limit.seen_need_m(union, d, seen.cell_m)   # the grid's resolution
-    now = float(seen.margin(position[None, :])[0]) - need
-    return seen.margin(rolled.positions).min(axis=1) - need - min(now, 0.0)
+    braked, stays beyond d from space never seen (less what it lacks already here), and from
+    space seen too lately to be mapped (speed_limit.unseen_margins)."""
+    speeds = np.full(len(headings), speed)
+    return speed_limit.unseen_margins(seen, position, lambda fly_s: fly_out(
+        position, motion, headings, speeds, fly_s, union.fov_rad).positions,
+        speed_limit.latency_s(motion, union), speed_limit.seen_need_m(union, d, seen.cell_m))
 
 
 def _far_blocked(candidates: np.ndarray, goal_heading: float, position: np.ndarray,

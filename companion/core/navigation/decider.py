@@ -77,7 +77,11 @@ class Decider:
         archive = estimator.options.archive
         self.seen = SeenSpace(union.fov_rad, union.sensor_range_m,
                               keep_m=None if archive is None     # the bounded map's
-                              else 2.0 * (archive.behind_m + union.sensor_range_m)) \
+                              else 2.0 * (archive.behind_m + union.sensor_range_m),
+                              # seen, not yet mapped (speed_limit.unseen_margins)
+                              recent_s=union.perception_delay_s
+                              if union.seen_speed_limit and union.perception_delay_s > 0.0
+                              else None) \
             if limits is not None and union.sensor_range_m is not None else None
         # a fixed camera's look beyond the view's edges (velocity choice; off unless configured)
         self.scan = FlankScan(FlankScanParams(union.fov_rad, union.flank_scan_rad,
@@ -95,7 +99,8 @@ class Decider:
         slam = self.estimator.slam
         if self.seen is not None:
             for yaw in self.union.view_yaws_rad:    # each camera's view (one: yaw 0)
-                self.seen.mark(np.array([slam.pose[0], slam.pose[1], slam.pose[2] + yaw]))
+                self.seen.mark(np.array([slam.pose[0], slam.pose[1], slam.pose[2] + yaw]),
+                               self.estimator.clock_s)
         if self.scan is not None:
             self.scan.mark(self.estimator.clock_s, float(slam.pose[2]))
 
