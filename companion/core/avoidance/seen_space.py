@@ -21,11 +21,10 @@ Pure numpy and scipy; positions north/east metres, angles radians.
 from __future__ import annotations
 
 import math
+from collections import deque
 
 import numpy as np
 from scipy.ndimage import distance_transform_edt
-
-from collections import deque
 
 from companion.core.geometry import wrap_angle
 
