@@ -4,13 +4,15 @@ generators (companion/sim/worlds.py, traffic_speeds.py) do not make, flown throu
 
     python benchmarks/heldout_headon.py [--worlds 100] [--seed 0] [--base config/scenarios/copter.yaml]
         [--ids both|on|off] [--out /tmp/heldout-headon] [--python .venv/bin/python]
+        [--leg-m 150 220] [--movers 1 3]
 
 World i is drawn from its own random stream (numpy default_rng([seed + i, 0x4E1D0]), shared
 with nothing in companion/) and written as a scenario file: the base's vehicle, noise, sensor,
 estimator and avoidance, with
 
-- a course in any direction (the generators all fly north), 150 to 220 m long, from (0, 0);
-- 1 to 3 movers at 3 to 5 m/s each, heading within 0.15 rad of straight at the vehicle, placed
+- a course in any direction (the generators all fly north), 150 to 220 m long, from (0, 0)
+  (``--leg-m``);
+- 1 to 3 movers (``--movers``) at 3 to 5 m/s each, heading within 0.15 rad of straight at the vehicle, placed
   to pass 0 to 8 m to either side of the course at 25 to 85 % of the leg, 4 s early to 2 s late
   against a vehicle flying straight at cruise speed (so their start distances vary: 60 to 400 m);
   radius 0.5 to 2 m;
@@ -38,13 +40,17 @@ import yaml
 STREAM = 0x4E1D0
 NOISE_SEED = 7000
 CRUISE_MPS = 5.0
+LEG_M = (150.0, 220.0)          # the defaults: the worlds of docs/copter-headon-failures.md
+MOVERS = (1, 3)
 
 
-def draw_world(seed: int, safety_distance_m: float, cruise_mps: float = CRUISE_MPS) -> dict:
-    """The world section (a dict for the scenario YAML) and the mission time of world ``seed``."""
+def draw_world(seed: int, safety_distance_m: float, cruise_mps: float = CRUISE_MPS,
+               leg_m: tuple[float, float] = LEG_M, movers: tuple[int, int] = MOVERS) -> dict:
+    """The world section (a dict for the scenario YAML) and the mission time of world ``seed``:
+    a leg of ``leg_m`` (low, high) metres, ``movers`` (fewest, most) movers."""
     rng = np.random.default_rng([seed, STREAM])
     course = rng.uniform(-math.pi, math.pi)
-    leg = rng.uniform(150.0, 220.0)
+    leg = rng.uniform(*leg_m)
     along = np.array([math.cos(course), math.sin(course)])
     left = np.array([-along[1], along[0]])
     goal = leg * along
@@ -67,8 +73,8 @@ def draw_world(seed: int, safety_distance_m: float, cruise_mps: float = CRUISE_M
                                       east_m=round(float(point[1]), 3),
                                       radius_m=round(float(radius), 3)))
                 break
-    movers = 0
-    for _ in range(int(rng.integers(1, 4))):
+    placed = 0
+    for _ in range(int(rng.integers(movers[0], movers[1] + 1))):
         for _ in range(20):
             speed = rng.uniform(3.0, 5.0)
             s = rng.uniform(0.25, 0.85) * leg
@@ -84,9 +90,9 @@ def draw_world(seed: int, safety_distance_m: float, cruise_mps: float = CRUISE_M
                                       radius_m=round(float(radius), 3),
                                       vel_north_mps=round(float(vel[0]), 4),
                                       vel_east_mps=round(float(vel[1]), 4)))
-                movers += 1
+                placed += 1
                 break
-    assert movers >= 1, seed
+    assert placed >= 1, seed
     max_time_s = round(max(120.0, 3.0 * leg / cruise_mps), 1)
     return dict(start=dict(north_m=0.0, east_m=0.0, yaw_deg=round(math.degrees(course), 4)),
                 goal=dict(north_m=round(float(goal[0]), 3), east_m=round(float(goal[1]), 3)),
@@ -137,6 +143,10 @@ def main() -> int:
     p.add_argument("--out", default="/tmp/heldout-headon")
     p.add_argument("--python", default=sys.executable)
     p.add_argument("--json", help="write the figures and every run as JSON")
+    p.add_argument("--leg-m", type=float, nargs=2, default=LEG_M, metavar=("LOW", "HIGH"),
+                   help="the leg's length is drawn from this range (m)")
+    p.add_argument("--movers", type=int, nargs=2, default=MOVERS, metavar=("FEWEST", "MOST"),
+                   help="how many movers a world has, drawn from this range (inclusive)")
     args = p.parse_args()
     base = yaml.safe_load(Path(args.base).read_text())
     d = float(base["avoidance"]["safety_distance_m"])
@@ -149,7 +159,8 @@ def main() -> int:
         runs = []
         for i in range(args.worlds):
             world = args.seed + i
-            drawn = draw_world(world, d, float(base["vehicle"]["speed_mps"]))
+            drawn = draw_world(world, d, float(base["vehicle"]["speed_mps"]),
+                               tuple(args.leg_m), tuple(args.movers))
             path = out / f"heldout-{label}-{world}.yaml"
             write_scenario(base, drawn, ids, f"heldout-headon-{label}-{world}", path)
             run = fly(args.python, path, NOISE_SEED + world)
