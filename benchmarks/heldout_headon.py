@@ -12,10 +12,10 @@ estimator and avoidance, with
 
 - a course in any direction (the generators all fly north), 150 to 220 m long, from (0, 0)
   (``--leg-m``);
-- 1 to 3 movers (``--movers``) at 3 to 5 m/s each, heading within 0.15 rad of straight at the vehicle, placed
-  to pass 0 to 8 m to either side of the course at 25 to 85 % of the leg, 4 s early to 2 s late
-  against a vehicle flying straight at cruise speed (so their start distances vary: 60 to 400 m);
-  radius 0.5 to 2 m;
+- 1 to 3 movers (``--movers``) at 3 to 5 m/s each, heading within 0.15 rad of straight at the
+  vehicle, placed to pass 0 to 8 m to either side of the course at 25 to 85 % of the leg, 4 s
+  early to 2 s late against a vehicle flying straight at cruise speed (so their start distances
+  vary: 60 to 400 m); radius 0.5 to 2 m;
 - 0 to 3 static posts (radius 1 to 2 m) 4 to 25 m off the course, at least 25 m apart.
 
 Each world is flown once, with noise seed 7000 + seed + i, by the CLI (a subprocess: what a user
@@ -148,6 +148,10 @@ def main() -> int:
     p.add_argument("--movers", type=int, nargs=2, default=MOVERS, metavar=("FEWEST", "MOST"),
                    help="how many movers a world has, drawn from this range (inclusive)")
     args = p.parse_args()
+    if not 0.0 < args.leg_m[0] <= args.leg_m[1]:
+        p.error(f"--leg-m: want 0 < LOW <= HIGH, got {args.leg_m[0]:g} {args.leg_m[1]:g}")
+    if not 1 <= args.movers[0] <= args.movers[1]:
+        p.error(f"--movers: want 1 <= FEWEST <= MOST, got {args.movers[0]} {args.movers[1]}")
     base = yaml.safe_load(Path(args.base).read_text())
     d = float(base["avoidance"]["safety_distance_m"])
     out = Path(args.out)
