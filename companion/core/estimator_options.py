@@ -65,7 +65,10 @@ class EstimatorOptions:
                                           # fraction of the distance from it to its nearest other
                                           # landmark (probation.within_spacing; forests: at 2.5 m
                                           # spacing the neighbour's sighting; docs/forest.md
-                                          # item 15). None: off, the speed reach alone
+                                          # item 15); and an id-less sighting joins a mover
+                                          # track only as near its prediction (a tree convicted
+                                          # by mistake took the trees coming into view 20-130 m
+                                          # off it: probation.track_reach). None: off
 
     def yaw_fix_sigma_rad(self, dt_s: float | None) -> float:
         """The sigma to fuse one autopilot yaw sample with, ``dt_s`` after the last one (None:

@@ -9,6 +9,7 @@ import pytest
 
 from companion.config.scenario import load_scenario
 from companion.config.sections import EstimatorConfig
+from companion.core.estimation.movers import MoverParams, MoverTracker
 from companion.core.estimation.probation import nearest_other_m, within_spacing
 from companion.core.estimation.slam_types import Observation
 from companion.errors import ConfigError
@@ -115,3 +116,48 @@ def test_a_bad_gate_in_yaml_is_refused_with_its_path(tmp_path):
     path.write_text(text.replace("  moved_spacing_gate: 0.5", "  moved_spacing_gate: 2.0"))
     with pytest.raises(ConfigError, match=r"estimator.moved_spacing_gate: expected a fraction"):
         load_scenario(path)
+
+
+def test_a_track_unseen_for_long_takes_a_far_point_only_without_a_bound():
+    """A tree convicted by mistake (forest-dense 10 m/s, seed 67: 3.6 m/s, sigma 0.69 m/s)
+    coasts unseen; 20 s on its prediction's sigma is ~14 m, and the NIS gate alone takes a
+    point 20 m off it. ``max_jump_m`` refuses that point and still takes one 1 m off."""
+    tracker = MoverTracker(MoverParams())
+    tid = tracker.create(0.0, np.zeros(2), np.eye(2) * 0.1 ** 2, None,
+                         velocity=(np.array([1.88, -3.05]), 0.69))
+    predicted = tracker.state(tid, 20.0).position_ne_m
+    cov = np.eye(2) * 0.1 ** 2
+    far, near = predicted + [12.0, 16.0], predicted + [0.6, 0.8]        # 20 m and 1 m off
+    assert tracker.nearest(20.0, far, cov) == tid
+    assert tracker.nearest(20.0, far, cov, max_jump_m=5.0) is None
+    assert tracker.nearest(20.0, near, cov, max_jump_m=5.0) == tid
+
+
+def new_tree_beside_a_ghost(gate):
+    """Trunks mapped at (18, 1) and (18, -2); a track (a tree convicted by mistake) predicted
+    2 m from a tree coming into view at (18, 4), 3 m from the nearest mapped trunk, with a wide
+    ellipse (created 10 s ago at 3.6 m/s, sigma 0.7 m/s, unseen since). The report of that
+    tree's first sighting and the navigator after."""
+    nav = navigator(gate)
+    nav.observe([seen_at(18.0, 1.0), seen_at(18.0, -2.0)])
+    velocity = np.array([1.88, -3.05])
+    start = np.array([18.0, 6.0]) - 10.0 * velocity         # at (18, 6) now: 2 m off the tree
+    nav.movers.create(nav.clock_s - 10.0, start, np.eye(2) * 0.1 ** 2, None,
+                      velocity=(velocity, 0.7))
+    report = nav.observe([seen_at(18.0, 4.0), seen_at(18.0, 1.0), seen_at(18.0, -2.0)])[0]
+    return report.action, nav
+
+
+def test_off_the_ghost_takes_the_new_tree():
+    action, nav = new_tree_beside_a_ghost(None)
+    assert action == "mover"
+    assert len(nav.estimator.slam.landmarks()) == 2                # the tree is not mapped
+
+
+def test_on_the_new_tree_is_mapped_and_the_ghost_coasts_on():
+    action, nav = new_tree_beside_a_ghost(0.5)
+    assert action == "added"
+    landmarks = nav.estimator.slam.landmarks()
+    assert len(landmarks) == 3 and np.hypot(*(landmarks - [18.0, 4.0]).T).min() < 0.1
+    assert len(nav.movers) == 1
+    assert nav.movers.states(nav.clock_s)[0].updates == 0          # no sighting absorbed

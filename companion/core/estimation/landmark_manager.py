@@ -214,7 +214,8 @@ class LandmarkManager:
             return UpdateReport("moved", None, None, None, None)
         if len(probation.movers):
             point, cov = probation.world_point(obs)
-            track = probation.movers.nearest(self.estimator.clock_s, point, cov)
+            track = probation.movers.nearest(self.estimator.clock_s, point, cov,
+                                             probation.track_reach(point))
             if track is not None:
                 return probation.update_mover(track, obs)
         if action == "new":

@@ -177,12 +177,19 @@ class MoverTracker:
         self._updates[track_id] = self._updates.get(track_id, 0) + 1
         return nis
 
-    def nearest(self, t_s: float, position: np.ndarray, position_cov: np.ndarray) -> int | None:
-        """The track that gates an id-less world point, if any (smallest NIS under the gate)."""
+    def nearest(self, t_s: float, position: np.ndarray, position_cov: np.ndarray,
+                max_jump_m: float = math.inf) -> int | None:
+        """The track that gates an id-less world point, if any (smallest NIS under the gate),
+        the point at most ``max_jump_m`` from the track's prediction. A track unseen for long
+        predicts a wide ellipse (its velocity's sigma times the time unseen: 0.7 m/s over 30 s,
+        21 m), and its gate then takes whatever new object comes into view there; the bound
+        keeps that for a caller who knows how far apart objects stand (probation.track_reach)."""
         best, best_nis = None, self.params.gate_nis
         for track_id, (_, _, oid) in self._tracks.items():
             state = self.state(track_id, t_s)
             innovation = position - state.position_ne_m
+            if math.hypot(*innovation) > max_jump_m:
+                continue
             nis = float(innovation @ np.linalg.solve(state.position_cov + position_cov, innovation))
             if nis < best_nis:
                 best, best_nis = track_id, nis
