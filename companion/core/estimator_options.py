@@ -67,7 +67,7 @@ class EstimatorOptions:
                                           # spacing the neighbour's sighting; docs/forest.md
                                           # item 15); and an id-less sighting joins a mover
                                           # track only as near its prediction (a tree convicted
-                                          # by mistake took the trees coming into view 20-130 m
+                                          # by mistake took the trees coming into view 45-130 m
                                           # off it: probation.track_reach). None: off
 
     def yaw_fix_sigma_rad(self, dt_s: float | None) -> float:

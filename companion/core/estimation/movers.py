@@ -183,7 +183,8 @@ class MoverTracker:
         the point at most ``max_jump_m`` from the track's prediction. A track unseen for long
         predicts a wide ellipse (its velocity's sigma times the time unseen: 0.7 m/s over 30 s,
         21 m), and its gate then takes whatever new object comes into view there; the bound
-        keeps that for a caller who knows how far apart objects stand (probation.track_reach)."""
+        refuses that, set by a caller who knows how far apart objects stand
+        (probation.track_reach)."""
         best, best_nis = None, self.params.gate_nis
         for track_id, (_, _, oid) in self._tracks.items():
             state = self.state(track_id, t_s)

@@ -328,11 +328,13 @@ class MoverProbation:
         fraction of the distance from the point to its nearest landmark in the map, as for a
         young landmark that moved (``within_spacing``); else unbounded. In a forest a
         tree convicted as a mover by mistake coasts on, its prediction's ellipse growing with
-        the time unseen, and took each tree coming into view within 20-130 m of it: never
+        the time unseen, and took each tree coming into view 45-130 m off its prediction: never
         pruned, never mapped, flown round as a mover for 75 s (forest-dense 10 m/s, seed 67)."""
         fraction = self.estimator.options.moved_spacing_gate
+        if fraction is None:
+            return math.inf
         points = self.estimator.slam.landmarks()
-        if fraction is None or not len(points):
+        if not len(points):
             return math.inf
         return fraction * float(np.hypot(*(points - point).T).min())
 
