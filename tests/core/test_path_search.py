@@ -9,7 +9,7 @@ from companion.core.avoidance.arc import VehicleLimits, clearance, fly_out
 from companion.core.avoidance.guidance import GuidanceInputs, GuidanceParams
 from companion.core.avoidance.path_follow import guide_along_path
 from companion.core.avoidance.path_search import (STEADY_PATH, PathParams, clearance_at,
-                                                 off_path, plan_path)
+                                                 off_path, off_path_grid, plan_path)
 from companion.core.avoidance.union import UnionParams
 
 D = 1.5
@@ -139,6 +139,37 @@ def test_off_path_measures_the_distance_to_the_polyline_not_its_vertices():
                        [-1.5, 0.0]])
     assert off_path(points, path, 1.0).tolist() == [False, True, False, True, False, True]
     assert off_path(points[:2], path[:1], 1.0).tolist() == [True, True]
+
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_off_path_grid_is_off_path_bit_for_bit(seed):
+    """The windowed test of a grid's cells gives off_path's answer on every cell: rotated grids
+    far from the origin (as a 5 km forest's), kept paths of cell steps with points exactly on
+    the width, a long last segment to a far goal, a single point."""
+    rng = np.random.default_rng(seed)
+    start = rng.uniform(-5000.0, 5000.0, 2)
+    angle = rng.uniform(-math.pi, math.pi)
+    axis_u = np.array([math.cos(angle), math.sin(angle)])
+    axis_v = np.array([-axis_u[1], axis_u[0]])
+    us = np.arange(-8.0, 48.0 + 0.25, 0.5)
+    vs = np.arange(-rng.uniform(5.0, 40.0), rng.uniform(5.0, 40.0) + 0.25, 0.5)
+    grid_u, grid_v = np.meshgrid(us, vs, indexing="ij")
+    centres = start + grid_u[..., None] * axis_u + grid_v[..., None] * axis_v
+    # a path of cell steps in grid coordinates (so points sit exactly 1.0 m off some segments),
+    # then a far goal; or a single point
+    steps = rng.integers(-1, 2, size=(int(rng.integers(0, 120)), 2)) * 0.5
+    steps[:, 0] = np.abs(steps[:, 0])
+    walk = np.vstack([[0.0, 0.0], np.cumsum(steps, axis=0)])
+    path = start + walk[:, :1] * axis_u + walk[:, 1:] * axis_v
+    if seed % 3:
+        path = np.vstack([path, start + rng.uniform(50.0, 5000.0) * axis_u])
+    width = float(rng.choice([0.5, 1.0, 1.3]))
+    expected = off_path(centres.reshape(-1, 2), path, width)
+    got = off_path_grid(us, vs, centres, start, axis_u, axis_v, path, width)
+    assert got.dtype == bool and got.shape == expected.shape
+    assert np.array_equal(got, expected)
+    assert 0 < expected.sum() < expected.size       # both answers occur
 
 
 def _closed_wall(half_width_m: float) -> np.ndarray:
