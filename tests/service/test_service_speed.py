@@ -120,13 +120,12 @@ def test_nose_and_velocity_fly_together_unless_the_command_looks_elsewhere():
 
 
 @pytest.mark.parametrize("yaw_lead_s", [None, 0.3])
-def test_after_a_stop_the_velocity_turns_from_where_the_decision_took_the_vehicle_to_fly(
-        yaw_lead_s):
+def test_the_velocity_turns_from_where_the_decision_took_the_vehicle_to_fly(yaw_lead_s):
     """Forest-dense 7 m/s seed 12: commands to stop and turn had the last setpoint's direction
     turn on to -150 deg while the vehicle still braked along -102; the next command (-72 deg, the
     nose apart after a goal look) set off from -150, onto a trunk at -134 the choice had not
-    rolled out. After a setpoint that asked no speed, given the direction the decision read (the
-    velocity's), the turn starts there; without it, as before."""
+    rolled out. Given the direction the decision read (the velocity's), the turn starts there;
+    without it, as before."""
     rate, dt = math.radians(60.0), 0.1
     step = rate * dt
     turned = ShapedSetpoint(math.radians(-150.0), 0.0, math.radians(-141.0), apart=True)
@@ -149,12 +148,6 @@ def test_after_a_stop_the_velocity_turns_from_where_the_decision_took_the_vehicl
     assert read.course_rad == pytest.approx(math.radians(107.0) + step)
     nose = shape_setpoint(math.radians(47.0), near, wide, rate, dt, 8.0, yaw_lead_s)
     assert nose.course_rad < math.radians(60.0)                       # led by the nose
-    # after a setpoint with speed, the turn goes on from that setpoint (ahead of the velocity,
-    # as the roll-outs turn it), whatever the decision read
-    turning = ShapedSetpoint(math.radians(30.0), 5.0, math.radians(10.0), apart=True)
-    on = shape_setpoint(math.radians(10.0), turning, GuidanceCommand(5.0, 1.5, "avoid"), rate, dt,
-                        8.0, yaw_lead_s, course_now_rad=math.radians(12.0))
-    assert on.course_rad == pytest.approx(math.radians(30.0) + step)
     # an evasion's free course is the command itself, whatever the decision read
     free = shape_setpoint(math.radians(-141.0), turned, GuidanceCommand(
         3.0, 0.5, "hold", free_course=True), rate, dt, 8.0, yaw_lead_s, course_now_rad=-1.0)

@@ -237,9 +237,6 @@ class ShapedSetpoint:
     apart: bool = False
 
 
-STILL_SETPOINT_MPS = 0.5     # a setpoint slower asks no direction (decider: the velocity's is noise)
-
-
 def shape_setpoint(yaw_now_rad: float, last: ShapedSetpoint | None, command: GuidanceCommand,
                    max_turn_rate_rad_s: float, dt_s: float, max_speed_mps: float,
                    yaw_lead_s: float | None = None,
@@ -255,17 +252,13 @@ def shape_setpoint(yaw_now_rad: float, last: ShapedSetpoint | None, command: Gui
     velocity after it. Without looks this is the plain turn limit from the nose.
     ``course_now_rad`` (None: the decision read the nose): the direction the decision took the
     vehicle to fly when it was not the nose (Navigator.decided_course_rad: the velocity's while
-    the nose looks apart). After a setpoint that asked (nearly) no speed, the turn starts from
-    there, and the setpoint is apart from the nose from then on until the nose is back: the
-    command was rolled out from there. A stop's direction goes on turning with the commands to
-    stop and turn while the vehicle still brakes along its old velocity, and the next command
+    the nose looks apart). The turn starts from there, whatever the last setpoint: the command
+    was rolled out from there. The last setpoint's direction goes on turning through commands
+    to stop and turn while the vehicle still brakes along its old velocity, and the next command
     set off along that turned direction (forest-dense 7 m/s seed 12: 3 m/s at -102 deg, a
-    setpoint sent at -135 deg for -72 asked, onto a trunk 3 m off at -134, passed at 0.95 m), or
-    from the nose that had followed it, 60 deg off the velocity the choice had read (forest-dense
-    10 m/s seed 25, as first fixed: a trunk passed at 1.25 m). After a setpoint with speed the
-    turn goes on from it, as the roll-outs turn the setpoint at the turn rate, ahead of the
-    velocity: restarted from the velocity every period, the turn lagged and the head-on
-    traffic rows fell 0.02-0.04.
+    setpoint sent at -135 deg for -72 asked, onto a trunk 3 m off at -134, passed at 0.95 m);
+    or, the nose back within a step of the last setpoint, from the nose, 60 deg off the velocity
+    the choice had read (forest-dense 10 m/s seed 25: a trunk passed at 1.25 m).
     ``yaw_lead_s`` (None: off): the nose's turn goes on from the last setpoint's yaw, kept within
     ``max_turn_rate_rad_s * yaw_lead_s`` of the nose now, rather than from the nose now. An
     autopilot whose yaw lags its target (ArduCopter: about 0.3 s) then turns at the full rate;
@@ -280,11 +273,8 @@ def shape_setpoint(yaw_now_rad: float, last: ShapedSetpoint | None, command: Gui
     apart = last is not None and (
         command.yaw_rad is not None
         or (last.apart and abs(wrap_angle(yaw_now_rad - last.course_rad)) > max_change + 1e-9))
-    # the last setpoint asked (nearly) no speed: its direction is not where the vehicle goes
-    flown = last is not None and course_now_rad is not None and not command.free_course \
-        and last.speed_mps < STILL_SETPOINT_MPS
+    flown = last is not None and course_now_rad is not None and not command.free_course
     reference = course_now_rad if flown else last.course_rad if apart else yaw_now_rad
-    apart = apart or flown
     course = wrap_angle(reference + limit_turn(reference, command.heading_rad,
                                                max_turn_rate_rad_s, dt_s))
     if command.free_course:
