@@ -90,7 +90,6 @@ class Decider:
         self._looked: list = []         # (base heading, look heading) of this decision
         self.goal_look = goal_look
         self._goal_apart = False        # the nose looked toward the goal (or still comes back)
-        self._decided_course: float | None = None   # decided_course_rad
         self._urgent: tuple | None = None
         self.vertical = vertical
         self.vertical_choice: vertical3d.VerticalChoice | None = None
@@ -158,12 +157,12 @@ class Decider:
                                                         float(pose[2]))
         return self.limits.motion(speed, course, float(pose[2]))
 
-    def decided_course_rad(self) -> float | None:
-        """The direction the last decision took the vehicle to fly when that was not the nose
-        (``_flight_pose``: the velocity's, or the last choice's when nearly still, while the nose
-        looks apart); None when it decided from the nose. Where the setpoint's velocity must turn
-        from for the decision's roll-outs to hold (guidance.shape_setpoint's ``course_now_rad``)."""
-        return self._decided_course
+    def flown_course_rad(self) -> float | None:
+        """The velocity's direction now, as ``_flight_pose`` reads it; None while nearly still
+        or before any odometry. Where a setpoint whose nose is apart turns from
+        (guidance.shape_setpoint's ``course_now_rad``)."""
+        now = self.estimator.velocity_now
+        return None if now is None or now[0] < LOOK_COURSE_MIN_SPEED_MPS else float(now[1])
 
     def _flight_pose(self, pose: np.ndarray) -> np.ndarray:
         """The pose guidance sees: while the nose looks at a mover, its yaw is the direction the
@@ -323,9 +322,7 @@ class Decider:
 
     def decide(self, t_s: float) -> tuple[GuidanceCommand, UrgencyChange | None]:
         """Guidance on the current estimate, and the urgency change it implies, if any."""
-        nose = self.estimator.slam.pose
-        pose = self._flight_pose(nose)
-        self._decided_course = None if pose is nose else float(pose[2])
+        pose = self._flight_pose(self.estimator.slam.pose)
         if self.vertical is not None and self.estimator.altitude_m is not None:
             command, movers, commit = self._decide_3d(pose, t_s)
         else:
