@@ -145,8 +145,7 @@ class Commander:
                                          commanding.max_attitude_age_s)
         shaped = shape_setpoint(slam_yaw, self._last_shaped, command,
                                 commanding.max_turn_rate_rad_s, interval_s,
-                                commanding.max_speed_mps, commanding.yaw_lead_s,
-                                p.navigator.flown_course_rad())
+                                commanding.max_speed_mps, commanding.yaw_lead_s)
         self._last_shaped, self._last_shaped_t_s = shaped, t_s
         # The autopilot's yaw drifts from the SLAM yaw; fly the SLAM heading in its frame.
         offset = p.ap_yaw_rad - slam_yaw

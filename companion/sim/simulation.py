@@ -274,7 +274,7 @@ def run_once(scenario: Scenario, seed: int, strategy: str | None = None,
             # As the service does (commander.setpoint): the turn-limited velocity direction and
             # nose (the nose apart only when looking at a mover) in the autopilot's yaw frame.
             shaped = shape_setpoint(est_heading, shaped, command, vehicle.max_turn_rate_rad_s,
-                                    dt, math.inf, course_now_rad=nav.flown_course_rad())
+                                    dt, math.inf)
             course = wrap_angle(shaped.course_rad + reported_yaw - est_heading)
             nose = wrap_angle(shaped.yaw_rad + reported_yaw - est_heading)
             odo = truth.step_copter(shaped.speed_mps * np.array([math.cos(course),

@@ -132,9 +132,9 @@ def test_the_look_changes_only_the_yaw_within_the_offset_and_the_turn_rate(monke
         looks.append((command, out))
         return out
 
-    def shape(yaw_now, last, command, rate, dt, top, course_now_rad=None):
-        out = real_shape(yaw_now, last, command, rate, dt, top, course_now_rad=course_now_rad)
-        shaped.append((yaw_now, last, out, rate * dt, course_now_rad))
+    def shape(yaw_now, last, command, rate, dt, top):
+        out = real_shape(yaw_now, last, command, rate, dt, top)
+        shaped.append((yaw_now, last, out, rate * dt))
         return out
 
     real_shape = simulation.shape_setpoint
@@ -151,12 +151,11 @@ def test_the_look_changes_only_the_yaw_within_the_offset_and_the_turn_rate(monke
         if after.yaw_rad is not None:
             assert abs(wrap_angle(after.yaw_rad - after.heading_rad)) <= offset + 1e-9
     apart = 0
-    for yaw_now, last, out, max_step, course_now in shaped:
+    for yaw_now, last, out, max_step in shaped:
         assert math.isfinite(out.yaw_rad) and math.isfinite(out.course_rad)
         assert abs(wrap_angle(out.yaw_rad - yaw_now)) <= max_step + 1e-9      # the nose's rate
-        if last is not None:                  # the velocity's, from where it flies while apart
-            flown = last.course_rad if course_now is None else course_now
-            reference = flown if out.apart else yaw_now
+        if last is not None:                                                  # the velocity's
+            reference = last.course_rad if out.apart else yaw_now
             assert abs(wrap_angle(out.course_rad - reference)) <= max_step + 1e-9
         apart += abs(wrap_angle(out.yaw_rad - out.course_rad)) > math.radians(5.0)
     assert apart >= 20                                        # the nose did leave the velocity

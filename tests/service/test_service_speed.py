@@ -119,36 +119,6 @@ def test_nose_and_velocity_fly_together_unless_the_command_looks_elsewhere():
     assert not home.apart and home.yaw_rad == pytest.approx(0.1)
 
 
-@pytest.mark.parametrize("yaw_lead_s", [None, 0.3])
-def test_apart_the_velocity_turns_from_where_the_vehicle_flies_not_the_last_setpoint(yaw_lead_s):
-    """Forest-dense 7 m/s seed 12: commands to stop and turn had the last setpoint's direction
-    turn on to -150 deg while the vehicle still braked along -102; the next command (-72 deg, the
-    nose apart after a goal look) set off from -150, onto a trunk at -134 the choice had not
-    rolled out. With the velocity's direction given, the turn starts there, as the choice reads
-    it; without it, as before."""
-    rate, dt = math.radians(60.0), 0.1
-    step = rate * dt
-    turned = ShapedSetpoint(math.radians(-150.0), 0.0, math.radians(-141.0), apart=True)
-    ahead = GuidanceCommand(4.4, math.radians(-72.0), "path")
-    flown = shape_setpoint(math.radians(-141.0), turned, ahead, rate, dt, 8.0, yaw_lead_s,
-                           course_now_rad=math.radians(-102.0))
-    assert flown.apart
-    assert flown.course_rad == pytest.approx(math.radians(-102.0) + step)
-    old = shape_setpoint(math.radians(-141.0), turned, ahead, rate, dt, 8.0, yaw_lead_s)
-    assert old.course_rad == pytest.approx(math.radians(-150.0) + step)
-    # the nose follows the course it is given (back toward the way flown, not onward to -150)
-    assert flown.yaw_rad == pytest.approx(math.radians(-141.0) + step)
-    assert old.yaw_rad == pytest.approx(old.course_rad)              # -144: onward
-    # the nose-led turn (not apart) ignores it
-    together = shape_setpoint(0.0, ShapedSetpoint(0.0, 5.0, 0.0), GuidanceCommand(5.0, 1.0, "avoid"),
-                              rate, dt, 8.0, yaw_lead_s, course_now_rad=-1.0)
-    assert together.course_rad == pytest.approx(step) and not together.apart
-    # an evasion's free course is the command itself, whatever the velocity
-    free = shape_setpoint(math.radians(-141.0), turned, GuidanceCommand(
-        3.0, 0.5, "hold", free_course=True), rate, dt, 8.0, yaw_lead_s, course_now_rad=-1.0)
-    assert free.course_rad == pytest.approx(0.5)
-
-
 # ------------------------------------------------------------------ pipeline
 def blocked_feed(look_at: bool = False, **commanding):
     base = config(require_camera=False)

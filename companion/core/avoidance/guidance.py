@@ -239,8 +239,7 @@ class ShapedSetpoint:
 
 def shape_setpoint(yaw_now_rad: float, last: ShapedSetpoint | None, command: GuidanceCommand,
                    max_turn_rate_rad_s: float, dt_s: float, max_speed_mps: float,
-                   yaw_lead_s: float | None = None,
-                   course_now_rad: float | None = None) -> ShapedSetpoint:
+                   yaw_lead_s: float | None = None) -> ShapedSetpoint:
     """The command as one setpoint after ``last`` (the previous one, None at first): each of
     velocity direction and nose turns at most ``max_turn_rate_rad_s * dt_s`` toward its target,
     the speed within [0, max_speed_mps].
@@ -250,14 +249,6 @@ def shape_setpoint(yaw_now_rad: float, last: ShapedSetpoint | None, command: Gui
     are apart (the command looks at a threat, or the nose is still coming back from a look), it
     turns from the last commanded direction instead: a nose pointed elsewhere must not drag the
     velocity after it. Without looks this is the plain turn limit from the nose.
-    ``course_now_rad`` (None: unknown, or nearly still): the velocity's direction now. While
-    apart, the turn starts from there rather than from the last setpoint, as the guidance reads
-    it (decider._flight_pose: the yaw it decides from is the velocity's while the nose is
-    apart). The last setpoint's direction goes on turning through commands to stop and turn,
-    while the vehicle still brakes along its old velocity; the next command then set off along
-    that turned direction, not the one the choice had rolled out (forest-dense 7 m/s seed 12:
-    3 m/s at -102 deg, a setpoint sent at -135 deg for -72 asked, onto a trunk 3 m off at -134,
-    passed at 0.95 m).
     ``yaw_lead_s`` (None: off): the nose's turn goes on from the last setpoint's yaw, kept within
     ``max_turn_rate_rad_s * yaw_lead_s`` of the nose now, rather than from the nose now. An
     autopilot whose yaw lags its target (ArduCopter: about 0.3 s) then turns at the full rate;
@@ -272,8 +263,7 @@ def shape_setpoint(yaw_now_rad: float, last: ShapedSetpoint | None, command: Gui
     apart = last is not None and (
         command.yaw_rad is not None
         or (last.apart and abs(wrap_angle(yaw_now_rad - last.course_rad)) > max_change + 1e-9))
-    flown = apart and course_now_rad is not None and not command.free_course
-    reference = (course_now_rad if flown else last.course_rad) if apart else yaw_now_rad
+    reference = last.course_rad if apart else yaw_now_rad
     course = wrap_angle(reference + limit_turn(reference, command.heading_rad,
                                                max_turn_rate_rad_s, dt_s))
     if command.free_course:
@@ -287,7 +277,7 @@ def shape_setpoint(yaw_now_rad: float, last: ShapedSetpoint | None, command: Gui
         # the lead's clamp must not make the yaw (nor the course it leads) jump between
         # setpoints: each stays within one step of the last one's
         yaw = wrap_angle(last.yaw_rad + limit_turn(last.yaw_rad, yaw, max_turn_rate_rad_s, dt_s))
-        if not command.free_course and not flown:
+        if not command.free_course:
             course = wrap_angle(last.course_rad + limit_turn(last.course_rad, course,
                                                              max_turn_rate_rad_s, dt_s))
     speed = command.speed_mps if not math.isfinite(command.speed_mps) \

@@ -157,13 +157,6 @@ class Decider:
                                                         float(pose[2]))
         return self.limits.motion(speed, course, float(pose[2]))
 
-    def flown_course_rad(self) -> float | None:
-        """The velocity's direction now, as ``_flight_pose`` reads it; None while nearly still
-        or before any odometry. Where a setpoint whose nose is apart turns from
-        (guidance.shape_setpoint's ``course_now_rad``)."""
-        now = self.estimator.velocity_now
-        return None if now is None or now[0] < LOOK_COURSE_MIN_SPEED_MPS else float(now[1])
-
     def _flight_pose(self, pose: np.ndarray) -> np.ndarray:
         """The pose guidance sees: while the nose looks at a mover, its yaw is the direction the
         vehicle flies (the velocity's, or the last choice's when nearly still), since the choice

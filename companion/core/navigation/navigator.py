@@ -121,10 +121,6 @@ class Navigator:
         """Guidance on the current estimate, and the urgency change it implies, if any."""
         return self.decider.decide(t_s)
 
-    def flown_course_rad(self) -> float | None:
-        """The velocity's direction now, None while nearly still (Decider.flown_course_rad)."""
-        return self.decider.flown_course_rad()
-
     # ------------------------------------------------------ what callers read
     slam = property(lambda self: self.estimator.slam)
     options = property(lambda self: self.estimator.options)
