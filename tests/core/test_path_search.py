@@ -141,7 +141,6 @@ def test_off_path_measures_the_distance_to_the_polyline_not_its_vertices():
     assert off_path(points[:2], path[:1], 1.0).tolist() == [True, True]
 
 
-
 @pytest.mark.parametrize("seed", range(40))
 def test_off_path_grid_is_off_path_bit_for_bit(seed):
     """The windowed test of a grid's cells gives off_path's answer on every cell: rotated grids
