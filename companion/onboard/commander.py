@@ -147,6 +147,7 @@ class Commander:
                                 commanding.max_turn_rate_rad_s, interval_s,
                                 commanding.max_speed_mps, commanding.yaw_lead_s)
         self._last_shaped, self._last_shaped_t_s = shaped, t_s
+        p.navigator.on_setpoint(shaped)
         # The autopilot's yaw drifts from the SLAM yaw; fly the SLAM heading in its frame.
         offset = p.ap_yaw_rad - slam_yaw
         heading_ap = wrap_angle(shaped.course_rad + offset)

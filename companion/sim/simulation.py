@@ -275,6 +275,7 @@ def run_once(scenario: Scenario, seed: int, strategy: str | None = None,
             # nose (the nose apart only when looking at a mover) in the autopilot's yaw frame.
             shaped = shape_setpoint(est_heading, shaped, command, vehicle.max_turn_rate_rad_s,
                                     dt, math.inf)
+            nav.on_setpoint(shaped)
             course = wrap_angle(shaped.course_rad + reported_yaw - est_heading)
             nose = wrap_angle(shaped.yaw_rad + reported_yaw - est_heading)
             odo = truth.step_copter(shaped.speed_mps * np.array([math.cos(course),

@@ -59,13 +59,15 @@ class VehicleLimits:
     max_jerk_mps3: float | None = None       # a multicopter's velocity shaped as ArduCopter's
                                              # (jerk_shaping.py); None: within max_accel at once
 
-    def motion(self, speed_mps: float, course_rad: float,
-               nose_rad: float | None = None) -> "Motion":
-        """``nose_rad``: the yaw now (a multicopter's; see Motion.nose_rad)."""
+    def motion(self, speed_mps: float, course_rad: float, nose_rad: float | None = None,
+               setpoint_rad: float | None = None) -> "Motion":
+        """``nose_rad``: the yaw now, ``setpoint_rad``: where the setpoint turns from (a
+        multicopter's; see Motion)."""
         copter = self.lateral_accel_limited
         return Motion(self.max_turn_rate_rad_s, self.max_accel_mps2, speed_mps, course_rad,
                       self.max_accel_mps2 if copter else None, nose_rad if copter else None,
-                      self.max_jerk_mps3 if copter else None)
+                      self.max_jerk_mps3 if copter else None,
+                      setpoint_rad if copter else None)
 
 
 @dataclass(frozen=True)
@@ -80,6 +82,16 @@ class Motion:
                                              # roll-out flies its velocity setpoint (_fly_copter)
     max_jerk_mps3: float | None = None       # with nose_rad: the velocity follows the setpoint
                                              # jerk-limited, as ArduCopter's (jerk_shaping.py)
+    setpoint_rad: float | None = None        # with nose_rad: the direction the next setpoint's
+                                             # velocity turns from, if not the nose (the last
+                                             # setpoint's while the nose is apart from it)
+
+    @property
+    def setpoint_start_rad(self) -> float:
+        """Where a multicopter's roll-out starts turning its setpoint: where the next setpoint
+        turns from (guidance.shape_setpoint: the last one's direction while the nose is apart
+        from it, else the nose), so the command flown is the command rolled out."""
+        return float(self.nose_rad if self.setpoint_rad is None else self.setpoint_rad)
 
     def turn_rate_at(self, speed_mps: np.ndarray) -> np.ndarray:
         """The fastest turn of the velocity's direction at each speed (rad/s)."""
@@ -216,7 +228,7 @@ def _fly_copter(start: np.ndarray, motion: Motion, headings: np.ndarray, command
     j = len(headings)
     max_dv = motion.max_accel_mps2 * STEP_S
     max_turn = motion.max_turn_rate_rad_s * STEP_S
-    nose = np.full(j, float(motion.nose_rad))
+    nose = np.full(j, motion.setpoint_start_rad)
     vel_n = np.full(j, motion.speed_mps * math.cos(motion.course_rad))
     vel_e = np.full(j, motion.speed_mps * math.sin(motion.course_rad))
     north, east = np.full(j, float(start[0])), np.full(j, float(start[1]))
@@ -263,7 +275,7 @@ def _fly_copter_one(start: np.ndarray, motion: Motion, heading: float, commanded
     max_dv = motion.max_accel_mps2 * STEP_S
     max_turn = motion.max_turn_rate_rad_s * STEP_S
     half_fov, pi, cos, sin, sqrt = 0.5 * fov_rad, math.pi, math.cos, math.sin, math.sqrt
-    nose = float(motion.nose_rad)
+    nose = motion.setpoint_start_rad
     vel_n = motion.speed_mps * cos(motion.course_rad)
     vel_e = motion.speed_mps * sin(motion.course_rad)
     north, east = float(start[0]), float(start[1])

@@ -72,7 +72,7 @@ def fly_copter_shaped(start: np.ndarray, motion, headings: np.ndarray, commanded
     speeds (J, N)."""
     j = len(headings)
     max_turn = motion.max_turn_rate_rad_s * step_s
-    nose = np.full(j, float(motion.nose_rad))
+    nose = np.full(j, motion.setpoint_start_rad)
     vel_n = np.full(j, motion.speed_mps * math.cos(motion.course_rad))
     vel_e = np.full(j, motion.speed_mps * math.sin(motion.course_rad))
     acc_n, acc_e = np.zeros(j), np.zeros(j)
@@ -110,7 +110,7 @@ def fly_copter_shaped_one(start: np.ndarray, motion, heading: float, commanded: 
     max_da = jerk * dt
     max_turn = motion.max_turn_rate_rad_s * step_s
     half_fov = 0.5 * fov_rad
-    nose = float(motion.nose_rad)
+    nose = motion.setpoint_start_rad
     vel_n = motion.speed_mps * cos(motion.course_rad)
     vel_e = motion.speed_mps * sin(motion.course_rad)
     acc_n = acc_e = 0.0

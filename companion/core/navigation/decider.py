@@ -90,6 +90,7 @@ class Decider:
         self._looked: list = []         # (base heading, look heading) of this decision
         self.goal_look = goal_look
         self._goal_apart = False        # the nose looked toward the goal (or still comes back)
+        self._setpoint_from: float | None = None    # on_setpoint
         self._urgent: tuple | None = None
         self.vertical = vertical
         self.vertical_choice: vertical3d.VerticalChoice | None = None
@@ -155,7 +156,16 @@ class Decider:
             return None
         speed, course = self.estimator.velocity_now or (self.params.cruise_speed_mps,
                                                         float(pose[2]))
-        return self.limits.motion(speed, course, float(pose[2]))
+        return self.limits.motion(speed, course, float(pose[2]), self._setpoint_from)
+
+    def on_setpoint(self, shaped) -> None:
+        """The setpoint just sent (guidance.ShapedSetpoint): while its nose is apart from its
+        velocity's direction, the next one turns from that direction, not from the nose, and the
+        next decision's roll-outs start their setpoint there too (Motion.setpoint_rad). Read from
+        the nose or the velocity instead, a stop's direction turned on with the commands to stop
+        and turn while the vehicle braked along its old velocity, and the next command was flown
+        from there, not as rolled out (forest-dense 7 m/s seed 12: a trunk passed at 0.95 m)."""
+        self._setpoint_from = float(shaped.course_rad) if shaped.apart else None
 
     def _flight_pose(self, pose: np.ndarray) -> np.ndarray:
         """The pose guidance sees: while the nose looks at a mover, its yaw is the direction the

@@ -121,6 +121,10 @@ class Navigator:
         """Guidance on the current estimate, and the urgency change it implies, if any."""
         return self.decider.decide(t_s)
 
+    def on_setpoint(self, shaped) -> None:
+        """The setpoint just sent (Decider.on_setpoint)."""
+        self.decider.on_setpoint(shaped)
+
     # ------------------------------------------------------ what callers read
     slam = property(lambda self: self.estimator.slam)
     options = property(lambda self: self.estimator.options)
