@@ -9,8 +9,9 @@ import pytest
 
 from companion.config.scenario import load_scenario
 from companion.core.avoidance.arc import VehicleLimits, clearance, fly_out
-from companion.core.avoidance.guidance import GuidanceCommand, shape_setpoint
+from companion.core.avoidance.guidance import GuidanceCommand, ShapedSetpoint, shape_setpoint
 from companion.core.avoidance.union import turn_speed_factor
+from companion.sim.simulation import make_navigator
 from companion.sim.truth import TruthWorld
 
 FOV = math.radians(90.0)
@@ -96,3 +97,58 @@ def test_one_command_alone_rolls_out_to_the_same_bits_as_among_many(copter):
         assert np.array_equal(one.speeds[0], many.speeds[i, :n])
         assert np.all(many.positions[i, n:] == one.positions[0, -1])
         assert one.speeds[0, -1] == pytest.approx(0.0, abs=1e-9)
+
+
+def flown_from(scenario, last, speed, course, nose, heading, cruise, look_rad):
+    """As ``flown``, but after the setpoint ``last`` and with the nose held at ``look_rad``; the
+    command's speed scaled by the setpoint's direction's error, as the roll-out scales it."""
+    truth = TruthWorld(scenario, np.random.default_rng(0))
+    truth.pose = np.array([0.0, 0.0, nose])
+    truth.vel_ne_mps = speed * np.array([math.cos(course), math.sin(course)])
+    vehicle, path = scenario.vehicle, []
+    for step in range(round(12.0 / vehicle.dt_s)):
+        factor = turn_speed_factor(last.course_rad, heading, FOV) \
+            if step * vehicle.dt_s < HORIZON_S - 1e-9 else 0.0
+        command = GuidanceCommand(cruise * factor, heading, "avoid", yaw_rad=look_rad)
+        last = shape_setpoint(truth.pose[2], last, command, vehicle.max_turn_rate_rad_s,
+                              vehicle.dt_s, math.inf)
+        truth.step_copter(last.speed_mps * np.array([math.cos(last.course_rad),
+                                                     math.sin(last.course_rad)]), last.yaw_rad)
+        path.append(truth.pose[:2].copy())
+    return np.array(path)
+
+
+def test_after_a_stop_turned_apart_the_roll_out_starts_where_the_setpoint_turns_from(copter):
+    # forest-dense 7 m/s seed 12 at 117.4 s: braking at 3 m/s along -102 deg, the nose held
+    # at -160 by the goal look, the stop's setpoint direction turned on to -135; asked for
+    # 4.4 m/s at -72. The next setpoint turns from -135 (guidance.shape_setpoint, apart): rolled
+    # out from there the path is the one flown; from the velocity the decision read, it was
+    # metres off (the command flown toward a trunk was not the one rolled out).
+    speed, course, nose, turned, heading = (3.0, *np.radians([-102.0, -160.0, -135.0, -72.0]))
+    last = ShapedSetpoint(turned, 0.3, nose, apart=True)
+    truth = flown_from(copter, last, speed, course, nose, heading, 4.4, nose)
+    t_truth = copter.vehicle.dt_s * np.arange(1, len(truth) + 1)
+    vehicle = copter.vehicle
+    limits = VehicleLimits(vehicle.max_turn_rate_rad_s, vehicle.max_accel_mps2,
+                           lateral_accel_limited=True)
+    errors = {}
+    for name, motion in (("setpoint", limits.motion(speed, course, course, turned)),
+                         ("velocity", limits.motion(speed, course, course))):
+        roll = fly_out(np.zeros(2), motion, np.array([heading]), np.array([4.4]), HORIZON_S,
+                       FOV)
+        at = np.stack([np.interp(roll.times_s, t_truth, truth[:, i]) for i in (0, 1)], axis=1)
+        errors[name] = float(np.hypot(*(roll.positions[0] - at).T).max())
+    assert errors["setpoint"] < 1.0           # 0.34 m
+    assert errors["velocity"] > 3.0           # 3.8 m: the roll-out before the fix
+
+
+def test_the_decision_rolls_out_from_the_last_setpoint_while_the_nose_is_apart(copter):
+    nav = make_navigator(copter)
+    nav.on_velocity(0.0, 5.0, 0.0, 0.0, 0.0)
+    pose = nav.slam.pose
+    assert nav.decider._motion(pose).setpoint_start_rad == pytest.approx(float(pose[2]))
+    nav.on_setpoint(ShapedSetpoint(0.7, 2.0, 0.0, apart=True))
+    assert nav.decider._motion(pose).setpoint_start_rad == 0.7
+    assert nav.decider._motion(pose).nose_rad == pytest.approx(float(pose[2]))   # the camera's
+    nav.on_setpoint(ShapedSetpoint(0.05, 2.0, 0.0, apart=False))
+    assert nav.decider._motion(pose).setpoint_start_rad == pytest.approx(float(pose[2]))
