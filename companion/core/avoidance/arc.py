@@ -93,6 +93,14 @@ class Motion:
         from it, else the nose), so the command flown is the command rolled out."""
         return float(self.nose_rad if self.setpoint_rad is None else self.setpoint_rad)
 
+    @property
+    def setpoint_split(self) -> bool:
+        """Whether the setpoint turns from elsewhere than the yaw the decision reads: the
+        roll-out then turns the two apart, the setpoint's direction from ``setpoint_rad`` and
+        the speed's gate (the command's speed falls with the heading's error from the yaw the
+        decision reads: union.turn_speed_factor) from ``nose_rad``."""
+        return self.setpoint_rad is not None and float(self.setpoint_rad) != float(self.nose_rad)
+
     def turn_rate_at(self, speed_mps: np.ndarray) -> np.ndarray:
         """The fastest turn of the velocity's direction at each speed (rad/s)."""
         rate = np.full(np.shape(speed_mps), self.max_turn_rate_rad_s)
@@ -229,6 +237,7 @@ def _fly_copter(start: np.ndarray, motion: Motion, headings: np.ndarray, command
     max_dv = motion.max_accel_mps2 * STEP_S
     max_turn = motion.max_turn_rate_rad_s * STEP_S
     nose = np.full(j, motion.setpoint_start_rad)
+    gate, split = np.full(j, float(motion.nose_rad)), motion.setpoint_split
     vel_n = np.full(j, motion.speed_mps * math.cos(motion.course_rad))
     vel_e = np.full(j, motion.speed_mps * math.sin(motion.course_rad))
     north, east = np.full(j, float(start[0])), np.full(j, float(start[1]))
@@ -237,7 +246,13 @@ def _fly_copter(start: np.ndarray, motion: Motion, headings: np.ndarray, command
     for k in range(steps):
         if k < cruise_steps:
             error = (headings - nose + math.pi) % TWO_PI - math.pi
-            speed = np.where(np.abs(error) > 0.5 * fov_rad, 0.0, commanded * np.cos(error))
+            if split:
+                gate_error = (headings - gate + math.pi) % TWO_PI - math.pi
+                gate = gate + np.minimum(np.maximum(gate_error, -max_turn), max_turn)
+            else:
+                gate_error = error
+            speed = np.where(np.abs(gate_error) > 0.5 * fov_rad, 0.0,
+                             commanded * np.cos(gate_error))
             nose = nose + np.minimum(np.maximum(error, -max_turn), max_turn)
             dv_n, dv_e = speed * np.cos(nose) - vel_n, speed * np.sin(nose) - vel_e
         else:
@@ -276,6 +291,7 @@ def _fly_copter_one(start: np.ndarray, motion: Motion, heading: float, commanded
     max_turn = motion.max_turn_rate_rad_s * STEP_S
     half_fov, pi, cos, sin, sqrt = 0.5 * fov_rad, math.pi, math.cos, math.sin, math.sqrt
     nose = motion.setpoint_start_rad
+    gate, split = float(motion.nose_rad), motion.setpoint_split
     vel_n = motion.speed_mps * cos(motion.course_rad)
     vel_e = motion.speed_mps * sin(motion.course_rad)
     north, east = float(start[0]), float(start[1])
@@ -284,7 +300,12 @@ def _fly_copter_one(start: np.ndarray, motion: Motion, heading: float, commanded
     for k in range(steps):
         if k < cruise_steps:
             error = (heading - nose + pi) % TWO_PI - pi
-            speed = 0.0 if abs(error) > half_fov else commanded * cos(error)
+            if split:
+                gate_error = (heading - gate + pi) % TWO_PI - pi
+                gate = gate + min(max(gate_error, -max_turn), max_turn)
+            else:
+                gate_error = error
+            speed = 0.0 if abs(gate_error) > half_fov else commanded * cos(gate_error)
             nose = nose + min(max(error, -max_turn), max_turn)
             dv_n, dv_e = speed * cos(nose) - vel_n, speed * sin(nose) - vel_e
         else:

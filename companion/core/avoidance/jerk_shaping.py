@@ -73,6 +73,7 @@ def fly_copter_shaped(start: np.ndarray, motion, headings: np.ndarray, commanded
     j = len(headings)
     max_turn = motion.max_turn_rate_rad_s * step_s
     nose = np.full(j, motion.setpoint_start_rad)
+    gate, split = np.full(j, float(motion.nose_rad)), motion.setpoint_split
     vel_n = np.full(j, motion.speed_mps * math.cos(motion.course_rad))
     vel_e = np.full(j, motion.speed_mps * math.sin(motion.course_rad))
     acc_n, acc_e = np.zeros(j), np.zeros(j)
@@ -83,7 +84,13 @@ def fly_copter_shaped(start: np.ndarray, motion, headings: np.ndarray, commanded
     for k in range(steps):
         if k < cruise_steps:
             error = (headings - nose + math.pi) % TWO_PI - math.pi
-            speed = np.where(np.abs(error) > 0.5 * fov_rad, 0.0, commanded * np.cos(error))
+            if split:
+                gate_error = (headings - gate + math.pi) % TWO_PI - math.pi
+                gate = gate + np.minimum(np.maximum(gate_error, -max_turn), max_turn)
+            else:
+                gate_error = error
+            speed = np.where(np.abs(gate_error) > 0.5 * fov_rad, 0.0,
+                             commanded * np.cos(gate_error))
             nose = nose + np.minimum(np.maximum(error, -max_turn), max_turn)
             set_n, set_e = speed * np.cos(nose), speed * np.sin(nose)
         else:
@@ -111,6 +118,7 @@ def fly_copter_shaped_one(start: np.ndarray, motion, heading: float, commanded: 
     max_turn = motion.max_turn_rate_rad_s * step_s
     half_fov = 0.5 * fov_rad
     nose = motion.setpoint_start_rad
+    gate, split = float(motion.nose_rad), motion.setpoint_split
     vel_n = motion.speed_mps * cos(motion.course_rad)
     vel_e = motion.speed_mps * sin(motion.course_rad)
     acc_n = acc_e = 0.0
@@ -120,7 +128,12 @@ def fly_copter_shaped_one(start: np.ndarray, motion, heading: float, commanded: 
     for k in range(steps):
         if k < cruise_steps:
             error = (heading - nose + pi) % TWO_PI - pi
-            speed = 0.0 if abs(error) > half_fov else commanded * cos(error)
+            if split:
+                gate_error = (heading - gate + pi) % TWO_PI - pi
+                gate = gate + min(max(gate_error, -max_turn), max_turn)
+            else:
+                gate_error = error
+            speed = 0.0 if abs(gate_error) > half_fov else commanded * cos(gate_error)
             nose = nose + min(max(error, -max_turn), max_turn)
             set_n, set_e = speed * cos(nose), speed * sin(nose)
         else:
