@@ -117,7 +117,9 @@ def test_one_commands_shaped_roll_out_in_floats_is_the_arrays_bit_for_bit():
     for _ in range(200):
         lim = VehicleLimits(math.radians(rng.uniform(10.0, 90.0)), rng.uniform(1.0, 4.0),
                             lateral_accel_limited=True, max_jerk_mps3=rng.uniform(2.0, 8.0))
-        motion = lim.motion(rng.uniform(0.0, 10.0), rng.uniform(-3.0, 3.0), rng.uniform(-3.0, 3.0))
+        setpoint = rng.uniform(-3.0, 3.0) if rng.random() < 0.5 else None    # split, or not
+        motion = lim.motion(rng.uniform(0.0, 10.0), rng.uniform(-3.0, 3.0), rng.uniform(-3.0, 3.0),
+                            setpoint)
         heading, speed = rng.uniform(-3.2, 3.2), rng.uniform(0.0, 10.0)
         start, fov = rng.uniform(-50.0, 50.0, 2), math.radians(rng.uniform(60.0, 120.0))
         many = fly_copter_shaped(start, motion, np.array([heading, heading + 1.0]),

@@ -9,7 +9,8 @@ import pytest
 
 from companion.config.scenario import load_scenario
 from companion.core.avoidance.arc import VehicleLimits, clearance, fly_out
-from companion.core.avoidance.guidance import GuidanceCommand, ShapedSetpoint, shape_setpoint
+from companion.core.avoidance.guidance import (GuidanceCommand, ShapedSetpoint, limit_turn,
+                                               shape_setpoint)
 from companion.core.avoidance.union import turn_speed_factor
 from companion.sim.simulation import make_navigator
 from companion.sim.truth import TruthWorld
@@ -82,12 +83,13 @@ def test_a_stop_is_a_straight_brake_not_a_turn_away(copter):
     assert float(clearance(stop, post, d)[0]) == pytest.approx(truth_margin, abs=0.5)
 
 
-def test_one_command_alone_rolls_out_to_the_same_bits_as_among_many(copter):
-    headings = np.radians([-170.0, -100.0, -44.0, 0.0, 30.0, 46.0, 105.0])
+@pytest.mark.parametrize("setpoint_rad", [None, -0.3])     # the setpoint turning from the nose,
+def test_one_command_alone_rolls_out_to_the_same_bits_as_among_many(copter, setpoint_rad):
+    headings = np.radians([-170.0, -100.0, -44.0, 0.0, 30.0, 46.0, 105.0])  # or from elsewhere
     speeds = np.array([15.0, 10.0, 10.0, 0.0, 7.5, 10.0, 12.0])
     vehicle = copter.vehicle
     motion = VehicleLimits(vehicle.max_turn_rate_rad_s, vehicle.max_accel_mps2,
-                           lateral_accel_limited=True).motion(8.0, 0.4, 0.9)
+                           lateral_accel_limited=True).motion(8.0, 0.4, 0.9, setpoint_rad)
     many = fly_out(np.array([3.0, -2.0]), motion, headings, speeds, HORIZON_S, FOV)
     for i, (heading, speed) in enumerate(zip(headings, speeds)):
         one = fly_out(np.array([3.0, -2.0]), motion, np.array([heading]), np.array([speed]),
@@ -99,18 +101,18 @@ def test_one_command_alone_rolls_out_to_the_same_bits_as_among_many(copter):
         assert one.speeds[0, -1] == pytest.approx(0.0, abs=1e-9)
 
 
-def flown_from(scenario, last, speed, course, nose, heading, cruise, look_rad):
-    """As ``flown``, but after the setpoint ``last`` and with the nose held at ``look_rad``; the
-    command's speed scaled by the heading's error from the velocity's direction, the yaw the
-    decision reads while the nose looks apart (decider._flight_pose)."""
+def flown_from(scenario, last, speed, course, nose, heading, cruise, look_rad, read_rad):
+    """As ``flown``, but after the setpoint ``last``, with the nose held at ``look_rad``; the
+    command's speed scaled by the heading's error from the yaw the decision reads, ``read_rad``
+    now, turning toward the heading at the turn rate (the roll-out's speed gate)."""
     truth = TruthWorld(scenario, np.random.default_rng(0))
     truth.pose = np.array([0.0, 0.0, nose])
     truth.vel_ne_mps = speed * np.array([math.cos(course), math.sin(course)])
     vehicle, path = scenario.vehicle, []
     for step in range(round(12.0 / vehicle.dt_s)):
-        flying = math.atan2(truth.vel_ne_mps[1], truth.vel_ne_mps[0])
-        factor = turn_speed_factor(flying, heading, FOV) \
+        factor = turn_speed_factor(read_rad, heading, FOV) \
             if step * vehicle.dt_s < HORIZON_S - 1e-9 else 0.0
+        read_rad += limit_turn(read_rad, heading, vehicle.max_turn_rate_rad_s, vehicle.dt_s)
         command = GuidanceCommand(cruise * factor, heading, "avoid", yaw_rad=look_rad)
         last = shape_setpoint(truth.pose[2], last, command, vehicle.max_turn_rate_rad_s,
                               vehicle.dt_s, math.inf)
@@ -128,7 +130,7 @@ def test_after_a_stop_turned_apart_the_roll_out_starts_where_the_setpoint_turns_
     # metres off (the command flown toward a trunk was not the one rolled out).
     speed, course, nose, turned, heading = (3.0, *np.radians([-102.0, -160.0, -135.0, -72.0]))
     last = ShapedSetpoint(turned, 0.3, nose, apart=True)
-    truth = flown_from(copter, last, speed, course, nose, heading, 4.4, nose)
+    truth = flown_from(copter, last, speed, course, nose, heading, 4.4, nose, course)
     t_truth = copter.vehicle.dt_s * np.arange(1, len(truth) + 1)
     vehicle = copter.vehicle
     limits = VehicleLimits(vehicle.max_turn_rate_rad_s, vehicle.max_accel_mps2,
@@ -140,9 +142,8 @@ def test_after_a_stop_turned_apart_the_roll_out_starts_where_the_setpoint_turns_
                        FOV)
         at = np.stack([np.interp(roll.times_s, t_truth, truth[:, i]) for i in (0, 1)], axis=1)
         errors[name] = float(np.hypot(*(roll.positions[0] - at).T).max())
-    print(errors)
-    assert errors["setpoint"] < 1.0
-    assert errors["velocity"] > 3.0           # the roll-out before the fix
+    assert errors["setpoint"] < 0.5            # 0.07 m
+    assert errors["velocity"] > 2.0            # 3.0 m: the roll-out before the fix
 
 
 def test_the_decision_rolls_out_from_the_last_setpoint_while_the_nose_is_apart(copter):

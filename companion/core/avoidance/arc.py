@@ -16,8 +16,9 @@ predicted positions, their radius growing with the track's uncertainty):
 
 A multicopter (a lateral limit and its nose known: Motion.nose_rad) is rolled out as it flies
 its velocity setpoint instead (_fly_copter): the nose turns at the turn rate, the setpoint
-follows the nose, the velocity follows the setpoint within max_accel as a vector, and a stop
-brakes straight. The arc above was 2.7 to 20 m off that flight at 5 to 15 m/s (its course
+follows the nose (or, while the nose is apart from it after a look, goes on from the last
+setpoint's direction, as guidance.shape_setpoint sends it), the velocity follows the setpoint
+within max_accel as a vector, and a stop brakes straight. The arc above was 2.7 to 20 m off that flight at 5 to 15 m/s (its course
 turned while braking, its speed kept up in a turn), and at 10 m/s the choice took turns it
 could not fly and then braked straight into a safety circle (tests/core/test_copter_rollout.py).
 
@@ -222,10 +223,12 @@ def fly_out(start_ne_m: np.ndarray, motion: Motion, headings_rad: np.ndarray,
 def _fly_copter(start: np.ndarray, motion: Motion, headings: np.ndarray, commanded: np.ndarray,
                 steps: int, cruise_steps: int, fov_rad: float) -> tuple[np.ndarray, np.ndarray]:
     """fly_out for a multicopter, as the truth flies it (truth.step_copter) from the setpoint the
-    guidance sends (guidance.shape_setpoint): the nose turns toward the command at the turn
-    rate; the setpoint is the speed scaled by the cosine of the nose's remaining error (zero
-    beyond half the view, as union.turn_speed_factor) along the nose's new direction; the
-    velocity moves toward that setpoint at the acceleration limit, as a vector. After the
+    guidance sends (guidance.shape_setpoint): the setpoint's direction turns toward the command
+    at the turn rate from where the next setpoint turns (Motion.setpoint_start_rad: the nose,
+    or the last setpoint's direction while the nose is apart from it); its speed is the
+    command's scaled by the cosine of the remaining error of the yaw the decision reads
+    (``nose_rad``, turning likewise; zero beyond half the view, as union.turn_speed_factor);
+    the velocity moves toward that setpoint at the acceleration limit, as a vector. After the
     cruise the setpoint is zero: the vehicle brakes in a straight line, as it does when told to
     stop. Unlike the unicycle's arc, the course does not turn while braking, and the speed is
     not kept up while the velocity turns. positions (J, N, 2), speeds (J, N). One command runs

@@ -66,9 +66,9 @@ def shaped_step(north, east, vel_n, vel_e, acc_n, acc_e, set_n, set_e, max_accel
 def fly_copter_shaped(start: np.ndarray, motion, headings: np.ndarray, commanded: np.ndarray,
                       steps: int, cruise_steps: int, fov_rad: float, step_s: float):
     """arc._fly_copter with ArduCopter's jerk-limited velocity (``motion.max_jerk_mps3``): the
-    nose turns toward the command at the turn rate, the setpoint is the speed scaled by the
-    cosine of the nose's remaining error (zero beyond half the view) along the nose, the velocity
-    follows it through ``shaped_step``; after the cruise the setpoint is zero. positions (J, N, 2),
+    setpoint's direction and the speed's gate turn toward the command at the turn rate (as
+    arc._fly_copter: from Motion.setpoint_start_rad and ``nose_rad``), the velocity follows the
+    setpoint through ``shaped_step``; after the cruise the setpoint is zero. positions (J, N, 2),
     speeds (J, N)."""
     j = len(headings)
     max_turn = motion.max_turn_rate_rad_s * step_s
