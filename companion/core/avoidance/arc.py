@@ -18,9 +18,10 @@ A multicopter (a lateral limit and its nose known: Motion.nose_rad) is rolled ou
 its velocity setpoint instead (_fly_copter): the nose turns at the turn rate, the setpoint
 follows the nose (or, while the nose is apart from it after a look, goes on from the last
 setpoint's direction, as guidance.shape_setpoint sends it), the velocity follows the setpoint
-within max_accel as a vector, and a stop brakes straight. The arc above was 2.7 to 20 m off that flight at 5 to 15 m/s (its course
-turned while braking, its speed kept up in a turn), and at 10 m/s the choice took turns it
-could not fly and then braked straight into a safety circle (tests/core/test_copter_rollout.py).
+within max_accel as a vector, and a stop brakes straight. The arc above was 2.7 to 20 m off
+that flight at 5 to 15 m/s (its course turned while braking, its speed kept up in a turn), and
+at 10 m/s the choice took turns it could not fly and then braked straight into a safety circle
+(tests/core/test_copter_rollout.py).
 
 Why over 400 lines: each roll-out is written twice, on arrays and in Python floats for one
 command (the most frequent call), and the two must stay the same operations in the same order
@@ -37,7 +38,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from companion.core.avoidance.jerk_shaping import (extra_brake_steps, fly_copter_shaped,
-                                                   fly_copter_shaped_one)
+                                                   fly_copter_shaped_one, turn_setpoint)
 from companion.core.geometry import TWO_PI
 
 STEP_S = 0.25                    # the roll-out's time step
@@ -248,15 +249,8 @@ def _fly_copter(start: np.ndarray, motion: Motion, headings: np.ndarray, command
     speeds = np.empty((j, steps))
     for k in range(steps):
         if k < cruise_steps:
-            error = (headings - nose + math.pi) % TWO_PI - math.pi
-            if split:
-                gate_error = (headings - gate + math.pi) % TWO_PI - math.pi
-                gate = gate + np.minimum(np.maximum(gate_error, -max_turn), max_turn)
-            else:
-                gate_error = error
-            speed = np.where(np.abs(gate_error) > 0.5 * fov_rad, 0.0,
-                             commanded * np.cos(gate_error))
-            nose = nose + np.minimum(np.maximum(error, -max_turn), max_turn)
+            speed, nose, gate = turn_setpoint(headings, commanded, nose, gate, split, max_turn,
+                                              fov_rad)
             dv_n, dv_e = speed * np.cos(nose) - vel_n, speed * np.sin(nose) - vel_e
         else:
             if not (vel_n.any() or vel_e.any()):     # all at rest: nothing moves any more

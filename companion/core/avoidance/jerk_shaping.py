@@ -63,6 +63,24 @@ def shaped_step(north, east, vel_n, vel_e, acc_n, acc_e, set_n, set_e, max_accel
     return north, east, vel_n, vel_e, acc_n, acc_e
 
 
+def turn_setpoint(headings: np.ndarray, commanded: np.ndarray, nose: np.ndarray,
+                  gate: np.ndarray, split: bool, max_turn: float, fov_rad: float):
+    """One cruise step of a multicopter's roll-out (arrays of J): the setpoint's speed, its
+    direction ``nose`` turned toward the headings by at most ``max_turn``, and the speed's
+    ``gate`` turned likewise when ``split`` (else the gate is the nose: Motion.setpoint_split).
+    The speed is the command's scaled by the cosine of the gate's error before the turn, zero
+    beyond half the view. Shared by arc._fly_copter and fly_copter_shaped; their one-command
+    loops write the same operations inline, in the same order."""
+    error = (headings - nose + math.pi) % TWO_PI - math.pi
+    if split:
+        gate_error = (headings - gate + math.pi) % TWO_PI - math.pi
+        gate = gate + np.minimum(np.maximum(gate_error, -max_turn), max_turn)
+    else:
+        gate_error = error
+    speed = np.where(np.abs(gate_error) > 0.5 * fov_rad, 0.0, commanded * np.cos(gate_error))
+    return speed, nose + np.minimum(np.maximum(error, -max_turn), max_turn), gate
+
+
 def fly_copter_shaped(start: np.ndarray, motion, headings: np.ndarray, commanded: np.ndarray,
                       steps: int, cruise_steps: int, fov_rad: float, step_s: float):
     """arc._fly_copter with ArduCopter's jerk-limited velocity (``motion.max_jerk_mps3``): the
@@ -83,15 +101,8 @@ def fly_copter_shaped(start: np.ndarray, motion, headings: np.ndarray, commanded
     zeros = np.zeros(j)
     for k in range(steps):
         if k < cruise_steps:
-            error = (headings - nose + math.pi) % TWO_PI - math.pi
-            if split:
-                gate_error = (headings - gate + math.pi) % TWO_PI - math.pi
-                gate = gate + np.minimum(np.maximum(gate_error, -max_turn), max_turn)
-            else:
-                gate_error = error
-            speed = np.where(np.abs(gate_error) > 0.5 * fov_rad, 0.0,
-                             commanded * np.cos(gate_error))
-            nose = nose + np.minimum(np.maximum(error, -max_turn), max_turn)
+            speed, nose, gate = turn_setpoint(headings, commanded, nose, gate, split, max_turn,
+                                              fov_rad)
             set_n, set_e = speed * np.cos(nose), speed * np.sin(nose)
         else:
             set_n, set_e = zeros, zeros

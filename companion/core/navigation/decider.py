@@ -18,7 +18,7 @@ from companion.core.avoidance.barrier import barrier_detour_m
 from companion.core.avoidance.commitment import Commitment
 from companion.core.avoidance.flank_scan import FlankScan, FlankScanParams
 from companion.core.avoidance.guidance import (GuidanceCommand, GuidanceInputs, GuidanceParams,
-                                               guide_apf, guide_cone)
+                                               ShapedSetpoint, guide_apf, guide_cone)
 from companion.core.avoidance.look_at import (GoalLookParams, LookAtParams, goal_look_yaw,
                                               threat_to_watch)
 from companion.core.avoidance.path_follow import guide_with_plan
@@ -158,7 +158,7 @@ class Decider:
                                                         float(pose[2]))
         return self.limits.motion(speed, course, float(pose[2]), self._setpoint_from)
 
-    def on_setpoint(self, shaped) -> None:
+    def on_setpoint(self, shaped: ShapedSetpoint) -> None:
         """The setpoint just sent (guidance.ShapedSetpoint): while its nose is apart from its
         velocity's direction, the next one turns from that direction, not from the nose, and the
         next decision's roll-outs start their setpoint there too (Motion.setpoint_rad). Read from
