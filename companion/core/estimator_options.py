@@ -69,6 +69,9 @@ class EstimatorOptions:
                                           # track only as near its prediction (a tree convicted
                                           # by mistake took the trees coming into view 45-130 m
                                           # off it: probation.track_reach). None: off
+    moved_beyond_own_gate: bool = False   # a young landmark 'moves' only to a sighting beyond
+                                          # its own gate: one in its grey zone (or refused by
+                                          # the joint test) is dropped (LandmarkManager)
 
     def yaw_fix_sigma_rad(self, dt_s: float | None) -> float:
         """The sigma to fuse one autopilot yaw sample with, ``dt_s`` after the last one (None:

@@ -193,8 +193,9 @@ class LandmarkManager:
     def _observe_anonymous(self, obs: Observation, used: set[int], plan=None) -> UpdateReport:
         """An observation without an id: the frame's joint association first (``plan``, from
         core/estimation/association.py: (action, landmark key)), then a young landmark that may
-        have moved (a gate as wide as a mover's top speed allows), then the mover tracks, then a
-        new landmark unless it was ambiguous."""
+        have moved (a gate as wide as a mover's top speed allows; with ``moved_beyond_own_gate``
+        not the one an ambiguous sighting came near), then the mover tracks, then a new landmark
+        unless it was ambiguous."""
         slam, probation = self.estimator.slam, self.probation
         z = np.array([obs.range_m, obs.bearing_rad])
         action, key = plan if plan is not None else ("new", None)
@@ -206,8 +207,10 @@ class LandmarkManager:
             return self._observe_surface(obs, z, key if action == "update" else None)
         if action == "update" and key in ids:
             return self._update_landmark(key, ids.index(key), z, obs)
-        moved = probation.moved(place(probation.young_pose(), z), self._frame_hits,
-                                self._frame_taken)
+        taken = self._frame_taken
+        if action == "ambiguous" and self.estimator.options.moved_beyond_own_gate:
+            taken = taken | {key}     # seen near where it is mapped: no sign that it moved
+        moved = probation.moved(place(probation.young_pose(), z), self._frame_hits, taken)
         if moved is not None:
             self._relocate(moved, z, obs, used)
             self._note(moved, obs, "moved")
