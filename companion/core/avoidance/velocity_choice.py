@@ -41,7 +41,10 @@ from companion.core.geometry import wrap_angle, wrap_angles
 
 SPEED_FRACTIONS = (1.0, 0.75, 0.5, 0.25)
 KEEP_TOLERANCE_M = 0.25    # the previous heading stays reachable down to d minus this: a choice
-                           # on the edge of reachable must not flip every decision
+                           # on the edge of reachable must not flip every decision...
+KEEP_FRACTION_OF_D = 0.05  # ...and at most this fraction of d: a success keeps 0.95 d, and a
+                           # tolerance beyond that let the previous heading fly knowingly inside
+                           # it (forest-dense 5 m/s seed 44, d 1.5 m: 1.19 m)
 LOOK_PARTS = (1.0, 0.75, 0.5)  # a flank look's swing, then parts of it (flank_scan.py)
 EVADE_SPARE_M = 1.0       # with a mover near, an evasion nearer the goal keeps this over margin
 BRAKE_ASIDE_TIE_M = 0.2   # with avoidance.speed_limit: a last resort braking aside must keep this
@@ -153,6 +156,7 @@ def choose_velocity(pose: np.ndarray, goal_heading: float, goal_distance: float,
     if side:
         cost = cost + np.pi * (np.sign(offset) == -side)
 
+    keep_m = min(KEEP_TOLERANCE_M, KEEP_FRACTION_OF_D * params.safety_distance_m)
     goal_path: list = []      # the goal heading's path at cruise, when a decision rolls it out
     same_goal = float(candidates[0]) == goal_heading     # index 0 is the goal heading, wrapped
 
@@ -171,14 +175,14 @@ def choose_velocity(pose: np.ndarray, goal_heading: float, goal_distance: float,
         rolled, margin = flown_margin(candidates[indices], speed)
         if same_goal and speed == cruise and len(indices) == 1 and indices[0] == 0:
             goal_path.append(rolled)
-        return margin + np.where(indices == 1, KEEP_TOLERANCE_M, 0.0)
+        return margin + np.where(indices == 1, keep_m, 0.0)
 
     def flyable(indices: np.ndarray, speed: float) -> np.ndarray:
         """The fallbacks' margin: the mapped obstacles alone."""
         rolled = fly_out(position, motion, candidates[indices], np.full(len(indices), speed),
                          union.lookahead_s, union.fov_rad)
         margin = clearance(rolled, obstacles, radii, velocities, growth_mps, position)
-        return margin + np.where(indices == 1, KEEP_TOLERANCE_M, 0.0)
+        return margin + np.where(indices == 1, keep_m, 0.0)
 
     def look_ok(heading: float, speed: float) -> bool:
         """The look heading is free of every cone, committed and reachable at ``speed``."""
@@ -310,7 +314,7 @@ def choose_velocity(pose: np.ndarray, goal_heading: float, goal_distance: float,
     if brakes_aside and not evades:
         # the speed limit's key: braking aside wins on its clearance alone, against the hold's
         # own (without the previous heading's tolerance), by more than the roll-out's step
-        own = best_margin - (KEEP_TOLERANCE_M if best[0] == 1 else 0.0)
+        own = best_margin - (keep_m if best[0] == 1 else 0.0)
         if evasion_now()[1][2] > own + BRAKE_ASIDE_TIE_M:
             return evade_command(*evasion_now()[1][:2], mode="hold")
     return command(best[0], best[1], "hold")
