@@ -42,9 +42,7 @@ from companion.core.geometry import wrap_angle, wrap_angles
 SPEED_FRACTIONS = (1.0, 0.75, 0.5, 0.25)
 KEEP_TOLERANCE_M = 0.25    # the previous heading stays reachable down to d minus this: a choice
                            # on the edge of reachable must not flip every decision...
-KEEP_FRACTION_OF_D = 0.05  # ...and at most this fraction of d: a success keeps 0.95 d, and a
-                           # tolerance beyond that let the previous heading fly knowingly inside
-                           # it (forest-dense 5 m/s seed 44, d 1.5 m: 1.19 m)
+KEEP_FRACTION_OF_D = 0.05  # ...and at most this fraction of d: a success keeps 0.95 d (forest.md)
 LOOK_PARTS = (1.0, 0.75, 0.5)  # a flank look's swing, then parts of it (flank_scan.py)
 EVADE_SPARE_M = 1.0       # with a mover near, an evasion nearer the goal keeps this over margin
 BRAKE_ASIDE_TIE_M = 0.2   # with avoidance.speed_limit: a last resort braking aside must keep this
@@ -131,10 +129,8 @@ def choose_velocity(pose: np.ndarray, goal_heading: float, goal_distance: float,
     obstacles only; ``near`` (n,) their indices in the caller's list. ``clear_reach_m``
     (commitment.py: a side taken, no progress yet): a heading toward the goal (within 90
     degrees of it) counts as free only if no static cone blocks it this far ahead, unless no
-    heading at all is free so. ``seen`` (seen_space.py): a command is flyable only if, flown
-    for ``union.perception_delay_s`` and then braked, it keeps d from space never seen (only
-    where that stopping distance exceeds d: at 5 m/s, 1 s and 2.5 m/s^2 it is 10 m, and an
-    obstacle that shows up is never nearer than it before the vehicle has stopped).
+    heading at all is free so. ``seen`` (seen_space.py): a command is flyable only if, flown for
+    the loop's latency and then braked, it keeps d from space never seen (_unseen_margin).
     ``look`` (flank_scan.py): a function of the chosen heading giving the heading to fly instead
     to look at a flank, or None; taken only if free, committed and reachable at the same speed.
     """
