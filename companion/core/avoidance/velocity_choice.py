@@ -173,12 +173,12 @@ def choose_velocity(pose: np.ndarray, goal_heading: float, goal_distance: float,
             goal_path.append(rolled)
         return margin + np.where(indices == 1, keep_m, 0.0)
 
-    def flyable(indices: np.ndarray, speed: float) -> np.ndarray:
-        """The fallbacks' margin: the mapped obstacles alone."""
+    def flyable(indices: np.ndarray, speed: float, keep: float = keep_m) -> np.ndarray:
+        """The fallbacks' margin, the mapped obstacles alone (the last resort's ranking: 0.25 m)."""
         rolled = fly_out(position, motion, candidates[indices], np.full(len(indices), speed),
                          union.lookahead_s, union.fov_rad)
         margin = clearance(rolled, obstacles, radii, velocities, growth_mps, position)
-        return margin + np.where(indices == 1, keep_m, 0.0)
+        return margin + np.where(indices == 1, keep, 0.0)
 
     def look_ok(heading: float, speed: float) -> bool:
         """The look heading is free of every cone, committed and reachable at ``speed``."""
@@ -301,7 +301,7 @@ def choose_velocity(pose: np.ndarray, goal_heading: float, goal_distance: float,
         return evade_command(*evasion_now()[0][:2])
     best_margin, best = -np.inf, (0, 0.0)
     for speed in (0.0, 0.5 * cruise, cruise):
-        margin = flyable(everything, speed)
+        margin = flyable(everything, speed, KEEP_TOLERANCE_M)
         k = int(np.argmax(margin))
         if margin[k] > best_margin + 0.5:       # a slower option wins ties: less to go wrong
             best_margin, best = float(margin[k]), (int(everything[k]), speed)
@@ -310,7 +310,7 @@ def choose_velocity(pose: np.ndarray, goal_heading: float, goal_distance: float,
     if brakes_aside and not evades:
         # the speed limit's key: braking aside wins on its clearance alone, against the hold's
         # own (without the previous heading's tolerance), by more than the roll-out's step
-        own = best_margin - (keep_m if best[0] == 1 else 0.0)
+        own = best_margin - (KEEP_TOLERANCE_M if best[0] == 1 else 0.0)
         if evasion_now()[1][2] > own + BRAKE_ASIDE_TIE_M:
             return evade_command(*evasion_now()[1][:2], mode="hold")
     return command(best[0], best[1], "hold")
